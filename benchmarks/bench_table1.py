@@ -1,0 +1,131 @@
+"""Benchmark: the whole Table I end to end, and one run against a typical user's solve.
+
+* ``table1_wall_s``: wall time of ``gearbench run experiments/table1.yaml`` as a
+  user runs it a second time (compiled code cached on disk), process start included.
+* ``run_wall_s``: one cell (profile 1, P control Kp = 50, no shift) with
+  gearbench's compiled Rosenbrock solver, best of 5.
+* ``baseline_run_wall_s``: the same cell the way a typical user would solve it:
+  ``scipy.integrate.solve_ivp(method="Radau")`` with a plain-Python right-hand
+  side of the same plant (SPEC section 2, the memoryless clipped contact law),
+  the same rtol, no events.
+* ``speedup`` = baseline / ours; ``iae_rel_diff`` = |IAE ours - IAE baseline| /
+  IAE reference; ``iae_ref_rel_err`` = our error against a tight-tolerance
+  (rtol 1e-9) gearbench reference.
+
+Writes ``results/bench.json`` (merging with keys other benchmarks wrote).
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from gearbench.control.controllers import Controller
+from gearbench.experiment.files import load_experiment
+from gearbench.profiles import load_profile
+from gearbench.report.io import write_text_atomic
+from gearbench.simulate import SolverOptions, simulate
+
+REPO = Path(__file__).resolve().parents[1]
+EXPERIMENT = REPO / "experiments" / "table1.yaml"
+
+
+def python_rhs_factory(plant, ctrl, prof):
+    """The SPEC plant and a saturated P controller as a plain-Python f(t, y)."""
+    m, g = plant.motor, plant.gear
+    n, h = g.ratio, g.half_clearance
+    k, d = g.mesh_stiffness, g.mesh_damping
+    jl, bl = plant.output_inertia, plant.output_damping
+    kp = ctrl.kp * 180.0 / math.pi
+    seg = prof.segments()
+
+    def ref(t):
+        i = max(int(np.searchsorted(seg.t, t, side="right")) - 1, 0)
+        return seg.v[i] + seg.s[i] * (t - seg.t[i])
+
+    def f(t, y):
+        i, thm, wm, delta, wl, _ = y
+        dd = wm / n - wl
+        if delta > h:
+            tq = max(k * (delta - h) + d * dd, 0.0)
+        elif delta < -h:
+            tq = min(k * (delta + h) + d * dd, 0.0)
+        else:
+            tq = 0.0
+        r = ref(t)
+        u = min(max(kp * (r - thm / n), -m.max_voltage), m.max_voltage)
+        thl = thm / n - delta
+        return [(u - m.resistance * i - m.back_emf_constant * wm) / m.inductance,
+                wm,
+                (m.torque_constant * i - m.damping * wm - tq / n) / m.inertia,
+                dd,
+                (tq - bl * wl) / jl,
+                abs(r - thl)]
+    return f
+
+
+def main() -> None:
+    exp = load_experiment(EXPERIMENT)
+    plant = exp.plant
+    prof = load_profile("profile1")
+    ctrl = Controller("p", kp=50.0)
+    rtol = exp.solver.rtol
+
+    # warm the cache, then time the end-to-end command
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "gearbench.cli", "run", str(EXPERIMENT), "--results", tmp]
+        subprocess.run(cmd, check=True, capture_output=True)
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True)
+        table1_wall = time.perf_counter() - t0
+
+    opts = exp.solver
+    simulate(plant, ctrl, prof.segments(), 10.0, opts)
+    walls = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        ours = simulate(plant, ctrl, prof.segments(), 10.0, opts)
+        walls.append(time.perf_counter() - t0)
+    run_wall = min(walls)
+    ref = simulate(plant, ctrl, prof.segments(), 10.0, SolverOptions(rtol=1e-9, max_step_s=opts.max_step_s))
+
+    f = python_rhs_factory(plant, ctrl, prof)
+    t0 = time.perf_counter()
+    sol = solve_ivp(f, (0.0, 10.0), np.zeros(6), method="Radau", rtol=rtol,
+                    atol=rtol * 1e-3)
+    baseline_wall = time.perf_counter() - t0
+    iae_base = math.degrees(sol.y[5, -1])
+
+    figures = {
+        "table1_wall_s": table1_wall,
+        "table1_runs": len(exp.runs()),
+        "run_wall_s": run_wall,
+        "run_steps": ours.steps,
+        "baseline_run_wall_s": baseline_wall,
+        "baseline_status": sol.message,
+        "speedup": baseline_wall / run_wall,
+        "iae_deg_s": ours.iae_deg_s,
+        "baseline_iae_deg_s": iae_base,
+        "reference_iae_deg_s": ref.iae_deg_s,
+        "iae_rel_diff": abs(ours.iae_deg_s - iae_base) / ref.iae_deg_s,
+        "iae_ref_rel_err": abs(ours.iae_deg_s - ref.iae_deg_s) / ref.iae_deg_s,
+        "rtol": rtol,
+        "cell": "profile1, P Kp=50, no shift",
+    }
+    out = REPO / "results" / "bench.json"
+    old = json.loads(out.read_text()) if out.exists() else {}
+    old.update(figures)
+    write_text_atomic(out, json.dumps(old, indent=2) + "\n")
+    for key, value in figures.items():
+        print(f"{key:>22}: {value:.4g}" if isinstance(value, float) else f"{key:>22}: {value}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,132 @@
+"""The ``gearbench`` command line (click)."""
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+console = Console(stderr=True)
+
+
+def _fail(exc: Exception) -> None:
+    """Print a clear error (what is wrong, where) and exit with status 2."""
+    console.print(f"[bold red]error:[/] {exc}", markup=True, highlight=False)
+    sys.exit(2)
+
+
+@click.group()
+@click.version_option(package_name="gearbench")
+def main() -> None:
+    """gearbench: geartrains with backlash under control; models against measurements."""
+
+
+@main.command()
+@click.argument("experiment", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--results", "results_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("results"), show_default=True, help="Folder for the tables and figures.")
+@click.option("--plot", is_flag=True, help="Write a PNG per run (set point, output, motor angle/N, voltage).")
+@click.option("--traces", is_flag=True, help="Write each run's trace CSV in the SPEC's measurement format.")
+@click.option("--method", type=click.Choice(["rosenbrock23", "ode23s", "dopri5", "ode45"]), default=None,
+              help="Override the experiment's solver method.")
+@click.option("--rtol", type=float, default=None, help="Override the experiment's relative tolerance.")
+def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: str | None,
+        rtol: float | None) -> None:
+    """Run EXPERIMENT (a YAML file): every profile x controller x shift.
+
+    Writes RESULTS/<name>.csv (profile, controller, kp, shift, iae_deg_s,
+    thesis_iae_deg_s, ratio), RESULTS/<name>_runs.csv (every score of every
+    run) and RESULTS/<name>.md; the IAE is the integrated absolute output
+    error in deg s.
+    """
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .experiment.files import ConfigError, load_experiment
+    from .profiles import ProfileError
+    from .report import tables
+    from .report.io import save_figure_atomic, write_csv_atomic, write_text_atomic
+    from .report.traces import run_figure, trace_frame
+    from .runner import load_profiles, run_experiment
+
+    try:
+        exp = load_experiment(experiment)
+        load_profiles(exp)
+        if exp.reference is not None:
+            reference = tables.read_reference(exp.reference)
+        else:
+            reference = None
+    except (ConfigError, ProfileError, ValueError) as exc:
+        _fail(exc)
+    if method or rtol:
+        exp = replace(exp, solver=replace(exp.solver, method=method or exp.solver.method,
+                                          rtol=rtol or exp.solver.rtol))
+    out_dir = results_dir / exp.name
+    failures = []
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeRemainingColumn(), console=console, transient=True) as progress:
+        task = progress.add_task(f"{exp.name}", total=len(exp.runs()))
+
+        def done(rec):
+            progress.update(task, advance=1, description=f"{exp.name}: {rec.label}")
+            if not rec.result.ok:
+                failures.append(rec.result.meta["message"])
+            if plot:
+                import matplotlib.pyplot as plt
+                fig = run_figure(rec.result, exp.plant)
+                save_figure_atomic(fig, out_dir / "plots" / f"{rec.label}.png")
+                plt.close(fig)
+            if traces:
+                write_csv_atomic(trace_frame(rec.result, exp.plant), out_dir / "traces" / f"{rec.label}.csv")
+
+        records = run_experiment(exp, on_done=done)
+
+    runs = tables.compare(tables.records_frame(records), reference)
+    write_csv_atomic(runs[tables.TABLE1_COLUMNS], results_dir / f"{exp.name}.csv")
+    write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv")
+    title = f"{exp.name}: integrated absolute output error (deg s)"
+    write_text_atomic(results_dir / f"{exp.name}.md",
+                      tables.table1_markdown(runs, title, exp.description))
+    Console().print(tables.rich_table(runs, title))
+    wall = sum(r.wall_s for r in records)
+    console.print(f"{len(records)} runs, {wall:.2f} s of solving; wrote {results_dir / exp.name}.csv/.md")
+    for msg in failures:
+        console.print(f"[yellow]warning:[/] {msg}", highlight=False)
+
+
+@main.command()
+@click.argument("plant_file", metavar="PLANT.yaml", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print the figures as one JSON object.")
+def info(plant_file: Path, as_json: bool) -> None:
+    """Derived figures of a plant: mesh and shaft natural frequencies, time
+    constants, stall torque, no-load speed (top speed for a leadscrew)."""
+    from .experiment.files import ConfigError, load_plant
+    from .plant.linear import plant_info
+
+    try:
+        plant = load_plant(plant_file)
+    except ConfigError as exc:
+        _fail(exc)
+    data = plant_info(plant)
+    if as_json:
+        click.echo(json.dumps(data, indent=2))
+        return
+    from rich.table import Table
+    t = Table(title=f"{plant.name}")
+    t.add_column("figure")
+    t.add_column("value", justify="right")
+    for key, value in data.items():
+        if key == "modes":
+            continue
+        t.add_row(key, "—" if value is None else f"{value:.6g}")
+    Console().print(t)
+    for mode in data["modes"]:
+        Console().print(f"engaged mode: {mode['frequency_hz']:.6g} Hz, damping ratio "
+                        f"{mode['damping_ratio']:.3g}, mostly {mode['dominant_state']}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,59 @@
+"""Controllers as typed objects; ``laws.py`` holds their compiled equations.
+
+Gains carry the thesis's units at the edge: the error is in output degrees,
+so ``kp`` is in V/deg (Kp = 50 gives 50 V per degree of motor-side error),
+``ki`` in 1/s (PI as the thesis writes it: ``Kp (e + Ki int e)``), ``kd`` in s,
+``band_deg`` the bang-bang dead band (no output while ``|e| <= band/2``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import layout as L
+
+KINDS = {"open": L.CTRL_OPEN, "bang_bang": L.CTRL_BANGBANG, "p": L.CTRL_P,
+         "pi": L.CTRL_PI, "pid": L.CTRL_PID}
+
+
+@dataclass(frozen=True)
+class Controller:
+    """A feedback law on the motor-side angle, with the optional set-point shift.
+
+    kind: ``bang_bang``, ``p``, ``pi``, ``pid`` (or ``open``: no feedback);
+    kp (V/deg), ki (1/s), kd (s), derivative_filter_s (s), band_deg (deg);
+    shift: apply thesis Equation 1; shift_deg: its size (deg), default half
+    the clearance.
+    """
+    kind: str
+    kp: float = 0.0
+    ki: float = 0.0
+    kd: float = 0.0
+    derivative_filter_s: float = 1e-3
+    band_deg: float = 0.25
+    shift: bool = False
+    shift_deg: float | None = None
+
+    @property
+    def label(self) -> str:
+        """Short name for tables: ``bang_bang``, ``p``, ``pi``, ``pid``."""
+        return self.kind
+
+
+def pack_controller(ctrl: Controller, backlash_deg: float, p: np.ndarray) -> np.ndarray:
+    """Fill the controller slots of ``p`` (SI: V/rad, 1/s, s, rad)."""
+    per_rad = 180.0 / math.pi
+    p[L.P_CTRL] = KINDS[ctrl.kind]
+    p[L.P_KP] = ctrl.kp * per_rad
+    p[L.P_KI] = ctrl.ki
+    p[L.P_KD] = ctrl.kd
+    p[L.P_TF] = ctrl.derivative_filter_s
+    p[L.P_BAND] = math.radians(ctrl.band_deg) / 2.0
+    if ctrl.shift:
+        shift = ctrl.shift_deg if ctrl.shift_deg is not None else backlash_deg / 2.0
+        p[L.P_SHIFT] = math.radians(shift)
+    else:
+        p[L.P_SHIFT] = 0.0
+    return p

@@ -1,0 +1,53 @@
+"""Controller laws of the thesis, compiled.
+
+The controllers see only the motor-side angle referred to the output,
+``theta_m / N`` (the output angle cannot be measured).  With the set point
+``r`` (rad) and the set-point shift ``s`` (rad; thesis Equation 1: ``+s`` while
+the motor speed is >= 0, else ``-s``), the error is ``e = r +- s - theta_m/N``.
+
+* bang-bang (thesis Eq. 4): ``u = Vmax sign(e)`` when ``|e| > band/2``, else 0;
+* P (Eq. 5):  ``u = Kp e``;
+* PI (Eq. 6): ``u = Kp (e + Ki z)``, ``dz/dt = e``;
+* PID: ``u = Kp (e + Ki z + Kd (e - f)/Tf)``, ``df/dt = (e - f)/Tf``, a
+  derivative filtered with time constant ``Tf``;
+
+all saturated at ``+-Vmax``.  Kp in V/rad, Ki in 1/s, Kd in s, Tf in s (the
+experiment files give Kp in V/deg, the thesis's unit).
+"""
+import numba as nb
+
+from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, M_BB,
+                      M_SHIFT, P_KD, P_KI, P_KP, P_N, P_SHIFT, P_TF, P_VMAX,
+                      X_THM, X_ZD, X_ZI)
+
+
+@nb.njit(cache=True)
+def control_error(x, p, modes, ref):
+    """Motor-side error ``e = r + shift - theta_m/N``, rad."""
+    return ref + modes[M_SHIFT] * p[P_SHIFT] - x[X_THM] / p[P_N]
+
+
+@nb.njit(cache=True)
+def command(x, p, modes, ref, kind):
+    """Unsaturated controller output, V (for open loop: the input itself)."""
+    if kind == CTRL_OPEN:
+        return ref
+    if kind == CTRL_BANGBANG:
+        return modes[M_BB] * p[P_VMAX]
+    e = control_error(x, p, modes, ref)
+    u = e
+    if kind == CTRL_PI or kind == CTRL_PID:
+        u += p[P_KI] * x[X_ZI]
+    if kind == CTRL_PID:
+        u += p[P_KD] * (e - x[X_ZD]) / p[P_TF]
+    return p[P_KP] * u
+
+
+@nb.njit(cache=True)
+def saturate(u, vmax):
+    """Clip to the amplifier's range ``[-vmax, vmax]``."""
+    if u > vmax:
+        return vmax
+    if u < -vmax:
+        return -vmax
+    return u

@@ -1,0 +1,586 @@
+"""Plant and experiment files (SPEC section 3): read, validate, build typed objects.
+
+Everything is checked before any solving, and every problem of a file is
+reported at once in one :class:`ConfigError`, one problem per line, each naming
+the file, the key path and the expected unit::
+
+    thesis_gear.yaml: motor.resistance must be a positive number in ohm, got -2.0
+    thesis_gear.yaml: load.inertia is missing: expected a positive number in kg m^2
+
+The validators work on plain dicts (:func:`validate_plant_dict`,
+:func:`validate_experiment_dict`) so that callers that edit a parsed file
+(``gearbench sweep``) can re-check it.
+
+YAML notes: ``on``/``off``/``yes``/``no`` read as booleans (YAML 1.1), numbers
+such as ``1e-6`` read as floats (PyYAML alone would read them as strings), and
+a key given twice in one mapping is an error.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import yaml
+
+from ..control.controllers import Controller
+from ..plant.components import Gear, Leadscrew, Load, Motor, Plant, Shaft
+from ..simulate import METHODS, SolverOptions
+from .schema import Choice, Number, Text, check_mapping, index, join, show
+
+CONTACT_LAWS = ("dubowsky", "elasto_backlash")
+INLINE = "<inline plant>"
+
+
+class ConfigError(ValueError):
+    """A plant or experiment file that cannot be used, with every problem found.
+
+    Parameters
+    ----------
+    file : str or None
+        Label of the file the problems belong to (its name).
+    problems : str or iterable
+        Problem texts (each naming a key path and the expected unit); an item
+        may also be a ``(file, text)`` pair when problems span several files.
+
+    Attributes
+    ----------
+    entries : tuple of (str, str)
+        ``(file, problem)`` pairs; the message has one line ``file: problem`` each.
+    """
+
+    def __init__(self, file: str | None, problems: str | Iterable[Any]):
+        items = [problems] if isinstance(problems, str) else list(problems)
+        self.entries = tuple(p if isinstance(p, tuple) else (file or "<config>", p) for p in items)
+        super().__init__("\n".join(f"{f}: {t}" for f, t in self.entries))
+
+    @property
+    def problems(self) -> list[str]:
+        """The problem texts without the file label."""
+        return [t for _, t in self.entries]
+
+    def __reduce__(self):  # picklable for process pools / Dask
+        return (ConfigError, (None, list(self.entries)))
+
+
+# ---------------------------------------------------------------- YAML reading
+
+_FLOAT_12 = re.compile(r"""^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$""")
+
+
+class _Loader(yaml.SafeLoader):
+    """Safe loader that reads ``1e-6`` as a float and refuses duplicate keys."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                duplicate = key in seen
+                seen.add(key)
+            except TypeError:
+                continue  # unhashable: the base class reports it
+            if duplicate:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {key!r} appears twice in the same mapping", key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
+
+
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789."))
+
+
+def parse_yaml(text: str, label: str) -> Any:
+    """Parse YAML ``text``; a syntax error becomes a :class:`ConfigError` with its line.
+
+    Parameters
+    ----------
+    text : str
+        The document.
+    label : str
+        File label used in messages.
+    """
+    try:
+        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        what = exc.problem or exc.context or "malformed YAML"
+        kind = "YAML error" if isinstance(exc, yaml.constructor.ConstructorError) else "YAML syntax error"
+        raise ConfigError(label, f"{kind}{where}: {what}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(label, f"YAML syntax error: {exc}") from None
+
+
+def read_yaml(path: str | Path, label: str | None = None) -> Any:
+    """Read and parse a YAML file; missing, unreadable or malformed files raise :class:`ConfigError`."""
+    path = Path(path)
+    label = label or path.name
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(label, f"file not found: {path.resolve()}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(label, f"cannot read {path}: {exc}") from None
+    data = parse_yaml(text, label)
+    if data is None:
+        raise ConfigError(label, "the file is empty")
+    return data
+
+
+# --------------------------------------------------------------------- plants
+
+POS, NONNEG = {"low": 0.0, "low_strict": True}, {"low": 0.0, "low_strict": False}
+
+MOTOR = {
+    "resistance": Number("ohm", **POS),
+    "inductance": Number("H", **POS),
+    "torque_constant": Number("N m/A", **POS),
+    "back_emf_constant": Number("V s/rad", **POS),
+    "inertia": Number("kg m^2", **POS),
+    "damping": Number("N m s/rad", **NONNEG),
+    "max_voltage": Number("V", **POS),
+}
+GEAR = {
+    "ratio": Number("motor turns per output turn", **POS),
+    "backlash_deg": Number("deg", **NONNEG),
+    "mesh_stiffness": Number("N m/rad", **POS),
+    "mesh_damping": Number("N m s/rad", **NONNEG),
+    "contact_law": Choice(CONTACT_LAWS, required=False, default="dubowsky"),
+}
+LOAD = {"inertia": Number("kg m^2", **POS), "damping": Number("N m s/rad", **NONNEG)}
+SHAFT = {
+    "stiffness": Number("N m/rad", **POS),
+    "damping": Number("N m s/rad", **NONNEG),
+    "pinion_inertia": Number("kg m^2", **POS),
+}
+LEADSCREW = {
+    "lead_mm": Number("mm", **POS),
+    "mass": Number("kg", **NONNEG),
+    "damping": Number("N s/m", **NONNEG, required=False, default=0.0),
+}
+PLANT_TOP = {"name": Text(), "description": Text(nonempty=False)}
+PLANT_SECTIONS = {"motor": (MOTOR, True), "gear": (GEAR, True), "load": (LOAD, True),
+                  "shaft": (SHAFT, False), "leadscrew": (LEADSCREW, False)}
+
+
+def _check_effects(raw: Any, where: str, problems: list[str]) -> tuple:
+    """Check ``effects:``; effects are not implemented yet, so only ``[]`` passes.
+
+    This is the one place to extend when effects (SPEC section 5) arrive.
+    """
+    if raw is None:
+        return ()
+    if not isinstance(raw, list):
+        problems.append(f"{where} must be a list of effects ({{type: NAME, ...}} mappings), "
+                        f"got {show(raw)}")
+        return ()
+    for i, item in enumerate(raw):
+        path = index(where, i)
+        if not isinstance(item, Mapping) or not isinstance(item.get("type"), str):
+            problems.append(f"{path} must be a mapping with a 'type' string, got {show(item)}")
+        else:
+            problems.append(f"{path}: effect {item['type']!r} cannot be used: effects are not "
+                            f"implemented yet, so {where} must be an empty list ([])")
+    return tuple(dict(item) for item in raw if isinstance(item, Mapping))
+
+
+def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None, list[str]]:
+    """Check a plant mapping; return the Plant (None if any problem) and the problems."""
+    problems: list[str] = []
+    sections = {k: "mapping" for k in PLANT_SECTIONS}
+    sections["effects"] = "list"
+    top = check_mapping(raw, where, PLANT_TOP, problems, context="a plant key", extra=sections)
+    if top is None:
+        return None, problems
+    values: dict[str, dict | None] = {}
+    for key, (fields, required) in PLANT_SECTIONS.items():
+        path = join(where, key)
+        if key not in raw:
+            if required:
+                units = ", ".join(f"{k} ({f.short()})" for k, f in fields.items())
+                problems.append(f"{path} is missing: expected a mapping with {units}")
+            values[key] = None
+            continue
+        got = check_mapping(raw[key], path, fields, problems, context=f"a {key} key")
+        values[key] = got if got is not None and set(got) >= {
+            k for k, f in fields.items() if f.required} else None
+    effects = _check_effects(raw.get("effects"), join(where, "effects"), problems)
+
+    motor, shaft = values["motor"], values["shaft"]
+    if motor and shaft and "inertia" in motor and "pinion_inertia" in shaft:
+        if shaft["pinion_inertia"] >= motor["inertia"]:
+            problems.append(
+                f"{join(where, 'shaft.pinion_inertia')} must be smaller than "
+                f"{join(where, 'motor.inertia')} (kg m^2; motor.inertia includes the pinion, "
+                f"which the shaft separates out), got {shaft['pinion_inertia']!r} >= {motor['inertia']!r}")
+    if problems:
+        return None, problems
+    if shaft:  # motor.inertia in the file is rotor + pinion; Motor.inertia is then the rotor alone
+        motor = dict(motor, inertia=motor["inertia"] - shaft["pinion_inertia"])
+    plant = Plant(
+        motor=Motor(**motor), gear=Gear(**values["gear"]), load=Load(**values["load"]),
+        shaft=Shaft(**shaft) if shaft else None,
+        leadscrew=Leadscrew(**values["leadscrew"]) if values["leadscrew"] else None,
+        effects=effects, name=top.get("name", default_name))
+    return plant, []
+
+
+def validate_plant_dict(d: Any, where: str = "") -> list[str]:
+    """Problems of a parsed plant mapping (empty when it is valid).
+
+    Parameters
+    ----------
+    d : Any
+        The parsed plant (should be a mapping with ``motor``, ``gear``, ``load``, ...).
+    where : str
+        Key path of ``d`` inside its file, prefixed to every path
+        (``"plant"`` for a plant inline in an experiment).
+
+    Returns
+    -------
+    list of str
+        One text per problem, naming the key path and the expected unit.
+    """
+    return _build_plant(d, where, "plant")[1]
+
+
+def plant_from_dict(d: Any, *, name: str = "plant", label: str = INLINE, where: str = "") -> Plant:
+    """Build a :class:`Plant` from a parsed mapping, or raise :class:`ConfigError`.
+
+    Parameters
+    ----------
+    d : Any
+        The parsed plant mapping.
+    name : str
+        Plant name when ``d`` has no ``name`` key.
+    label : str
+        File label for messages.
+    where : str
+        Key path of ``d`` inside its file.
+    """
+    plant, problems = _build_plant(d, where, name)
+    if problems:
+        raise ConfigError(label, problems)
+    return plant
+
+
+def load_plant(source: str | Path | Mapping, *, base_dir: str | Path | None = None) -> Plant:
+    """Load and validate a plant (SPEC section 3).
+
+    Parameters
+    ----------
+    source : str, Path or Mapping
+        A plant YAML file, or an already parsed mapping.
+    base_dir : str or Path, optional
+        Folder a relative ``source`` path is taken from (default: the working directory).
+
+    Returns
+    -------
+    Plant
+        In SI units.  ``Plant.name`` is the file's ``name`` key, else the file
+        stem (``"plant"`` for a mapping).  With a ``shaft``, the file's
+        ``motor.inertia`` is rotor + pinion (+ input shaft) as SPEC section 3
+        says, and ``shaft.pinion_inertia`` comes out of it:
+        ``Plant.motor.inertia = motor.inertia - shaft.pinion_inertia`` (the rotor
+        alone), which is how the compiled core reads it.  ``description`` is
+        checked but not kept (``Plant`` has no field for it).
+
+    Raises
+    ------
+    ConfigError
+        Listing every problem: unknown or missing keys, wrong types (a boolean
+        is not a number), non-finite or unphysical values, YAML syntax errors.
+    """
+    if isinstance(source, Mapping):
+        return plant_from_dict(source)
+    path = Path(source)
+    if base_dir is not None and not path.is_absolute():
+        path = Path(base_dir) / path
+    return plant_from_dict(read_yaml(path), name=path.stem, label=path.name)
+
+
+# ----------------------------------------------------------------- experiments
+
+SOLVER = {
+    "method": Choice(tuple(METHODS), required=False),
+    "rtol": Number("", low=0.0, high=1.0, required=False),
+    "max_step_s": Number("s", **POS, required=False),
+    "output_dt_s": Number("s", **POS, required=False),
+    "max_steps": Number("steps", **POS, integer=True, required=False),
+}
+EXPERIMENT_TOP = {
+    "name": Text(),
+    "description": Text(nonempty=False),
+    "duration_s": Number("s", **POS),
+    "shift_deg": Number("deg", **NONNEG, required=False),
+    "initial_delta_deg": Number("deg", low=None, required=False, default=0.0),
+    "reference": Text(),
+}
+EXPERIMENT_SECTIONS = {"plant": "file path or mapping", "solver": "mapping",
+                       "profiles": "list of names or paths", "controllers": "list of mappings",
+                       "shift": "boolean or list of booleans"}
+
+_KP = Number("V/deg", **POS)
+CONTROLLERS = {
+    "bang_bang": {"band_deg": Number("deg", **POS, required=False, default=0.25)},
+    "p": {"kp": _KP},
+    "pi": {"kp": _KP, "ki": Number("1/s", **NONNEG)},
+    "pid": {"kp": _KP, "ki": Number("1/s", **NONNEG), "kd": Number("s", **NONNEG),
+            "derivative_filter_s": Number("s", **POS, required=False, default=1e-3)},
+}
+"""Settings per controller kind (gains in the thesis's units, see ``Controller``).
+``band_deg`` and ``derivative_filter_s`` are optional (0.25 deg, 1 ms); the gains are required."""
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A matrix of runs: one plant, profiles x controllers x set-point shifts.
+
+    Attributes
+    ----------
+    name, description : str
+    plant : Plant
+    plant_path : str or None
+        Resolved path of the plant file; None for an inline plant.
+    duration_s : float
+        Simulated time of each run, s.
+    solver : SolverOptions
+    profiles : tuple of str
+        Profile names or paths, as written (resolved by ``gearbench.profiles``).
+    controllers : tuple of Controller
+        As written, without the shift (see :meth:`runs`).
+    shifts : tuple of bool
+        Set-point shift off/on, one run each.
+    shift_deg : float or None
+        Size of the set-point shift, deg; None = half the clearance.
+    reference : Path or None
+        Reference table to compare with (resolved path).
+    initial_delta_deg : float
+        Where the mesh sits in its clearance at t = 0 (output deg, 0 = centred).
+    base_dir : Path
+        Folder of the experiment file; relative paths are taken from it.
+    """
+    name: str
+    description: str
+    plant: Plant
+    plant_path: str | None
+    duration_s: float
+    solver: SolverOptions
+    profiles: tuple[str, ...]
+    controllers: tuple[Controller, ...]
+    shifts: tuple[bool, ...]
+    shift_deg: float | None
+    reference: Path | None
+    initial_delta_deg: float
+    base_dir: Path
+
+    @property
+    def initial_delta(self) -> float:
+        """``initial_delta_deg`` in rad (``simulate(..., delta0=...)``)."""
+        return math.radians(self.initial_delta_deg)
+
+    def runs(self) -> list[tuple[str, Controller]]:
+        """Every run as ``(profile, controller)``: profiles outermost, then
+        controllers, then shifts; each controller carries its ``shift`` and the
+        experiment's ``shift_deg``."""
+        return [(prof, replace(ctrl, shift=s, shift_deg=self.shift_deg))
+                for prof in self.profiles for ctrl in self.controllers for s in self.shifts]
+
+
+def _check_controller(raw: Any, where: str, problems: list[str]) -> Controller | None:
+    if not isinstance(raw, Mapping):
+        problems.append(f"{where} must be a mapping like {{kind: p, kp: 50}}, got {show(raw)}")
+        return None
+    kind = raw.get("kind")
+    if kind not in CONTROLLERS:
+        got = "nothing" if "kind" not in raw else show(kind)
+        problems.append(f"{join(where, 'kind')} must be one of {', '.join(CONTROLLERS)} "
+                        f"(a string), got {got}")
+        return None
+    n = len(problems)
+    got = check_mapping(raw, where, CONTROLLERS[kind], problems, context=f"a {kind} setting",
+                        extra={"kind": "|".join(CONTROLLERS)})
+    return Controller(kind, **got) if got is not None and len(problems) == n else None
+
+
+def _string_list(raw: Any, where: str, what: str, one: str, problems: list[str]) -> tuple[str, ...]:
+    items = [raw] if isinstance(raw, str) else raw
+    if not isinstance(items, list) or not items:
+        problems.append(f"{where} must be a non-empty list of {what}, got {show(raw)}")
+        return ()
+    out = []
+    for i, item in enumerate(items):
+        if isinstance(item, str) and item.strip():
+            out.append(item)
+        else:
+            problems.append(f"{index(where, i)} must be {one} (a string), got {show(item)}")
+    return tuple(out)
+
+
+def _check_shifts(raw: Any, where: str, problems: list[str]) -> tuple[bool, ...]:
+    items = [raw] if isinstance(raw, bool) else raw
+    if not isinstance(items, list) or not items:
+        problems.append(f"{where} must be a boolean (off/on) or a non-empty list of them, got {show(raw)}")
+        return ()
+    bad = [i for i, s in enumerate(items) if not isinstance(s, bool)]
+    for i in bad:
+        problems.append(f"{index(where, i)} must be a boolean (off/on), got {show(items[i])}")
+    return () if bad else tuple(items)
+
+
+def _resolve(base_dir: Path, text: str) -> Path:
+    p = Path(text).expanduser()
+    return p if p.is_absolute() else base_dir / p
+
+
+def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tuple[Experiment | None, list]:
+    """Check an experiment mapping; return it (None on problems) and ``(file, text)`` problems."""
+    problems: list[str] = []
+    other: list[tuple[str, str]] = []  # problems of a referenced plant file
+    top = check_mapping(raw, "", EXPERIMENT_TOP, problems, context="an experiment key",
+                        extra=EXPERIMENT_SECTIONS)
+    if top is None:
+        return None, [(label, p) for p in problems]
+
+    plant, plant_path, name = None, None, top.get("name", default_name)
+    ref = raw.get("plant")
+    if isinstance(ref, str) and ref.strip():
+        path = _resolve(base_dir, ref)
+        plant_path = str(path.resolve())
+        if not path.is_file():
+            problems.append(f"plant must name an existing plant file (path relative to this "
+                            f"file), not found: {path}")
+        else:
+            try:
+                plant = plant_from_dict(read_yaml(path, ref), name=path.stem, label=ref)
+            except ConfigError as exc:
+                other.extend(exc.entries)
+    elif isinstance(ref, Mapping):
+        plant, plant_problems = _build_plant(ref, "plant", name)
+        problems.extend(plant_problems)
+    else:
+        got = "nothing" if "plant" not in raw else show(ref)
+        problems.append(f"plant must be a plant file path (relative to this file) or an inline "
+                        f"plant mapping, got {got}")
+
+    solver = check_mapping(raw.get("solver", {}), "solver", SOLVER, problems, context="a solver setting")
+    if solver and "duration_s" in top and solver.get("output_dt_s", 0.0) > top["duration_s"]:
+        problems.append(f"solver.output_dt_s must be at most duration_s ({top['duration_s']:g} s), "
+                        f"got {solver['output_dt_s']!r}")
+    if "profiles" in raw:
+        profiles = _string_list(raw["profiles"], "profiles", "profile names or paths",
+                                "a profile name or path", problems)
+    else:
+        profiles = ()
+        problems.append("profiles is missing: expected a list of profile names or paths")
+
+    controllers: list[Controller | None] = []
+    ctrl_raw = raw.get("controllers")
+    ctrl_items = [ctrl_raw] if isinstance(ctrl_raw, Mapping) else ctrl_raw
+    if not isinstance(ctrl_items, list) or not ctrl_items:
+        got = "nothing" if "controllers" not in raw else show(ctrl_raw)
+        problems.append(f"controllers must be a non-empty list of controller mappings "
+                        f"({{kind: bang_bang|p|pi|pid, ...}}), got {got}")
+    else:
+        for i, item in enumerate(ctrl_items):
+            controllers.append(_check_controller(item, index("controllers", i), problems))
+
+    shifts = _check_shifts(raw.get("shift", False), "shift", problems)
+
+    if plant is not None:
+        clearance = plant.gear.backlash_deg
+        shift_deg = top.get("shift_deg")
+        if shift_deg is not None and shift_deg > clearance:
+            problems.append(f"shift_deg must lie between 0 and the clearance gear.backlash_deg = "
+                            f"{clearance:g} deg, got {shift_deg!r}")
+        d0 = top.get("initial_delta_deg", 0.0)
+        if abs(d0) > clearance / 2.0:
+            problems.append(f"initial_delta_deg must lie within +-{clearance / 2.0:g} deg (half of "
+                            f"gear.backlash_deg = {clearance:g} deg), got {d0!r}")
+
+    reference = None
+    if "reference" in top:
+        reference = _resolve(base_dir, top["reference"])
+        if not reference.is_file():
+            problems.append(f"reference must be an existing file (path relative to this file), "
+                            f"not found: {reference}")
+
+    entries = [(label, p) for p in problems] + other
+    if entries:
+        return None, entries
+    exp = Experiment(
+        name=name, description=top.get("description", ""), plant=plant, plant_path=plant_path,
+        duration_s=top["duration_s"], solver=SolverOptions(**solver), profiles=profiles,
+        controllers=tuple(controllers), shifts=shifts, shift_deg=top.get("shift_deg"),
+        reference=reference, initial_delta_deg=top.get("initial_delta_deg", 0.0),
+        base_dir=base_dir)
+    return exp, []
+
+
+def validate_experiment_dict(d: Any, base_dir: str | Path = ".", label: str = "<experiment>") -> list[str]:
+    """Problems of a parsed experiment mapping, as ``file: problem`` lines (empty when valid).
+
+    Parameters
+    ----------
+    d : Any
+        The parsed experiment.
+    base_dir : str or Path
+        Folder relative paths (plant file, reference) are taken from.
+    label : str
+        File label for problems of the experiment itself (a referenced plant
+        file's problems carry that file's label).
+    """
+    return [f"{f}: {t}" for f, t in _experiment(d, Path(base_dir), label, "experiment")[1]]
+
+
+def experiment_from_dict(d: Any, *, base_dir: str | Path = ".", name: str = "experiment",
+                         label: str = "<experiment>") -> Experiment:
+    """Build an :class:`Experiment` from a parsed mapping, or raise :class:`ConfigError`.
+
+    Parameters
+    ----------
+    d : Any
+        The parsed experiment.
+    base_dir : str or Path
+        Folder relative paths are taken from; becomes ``Experiment.base_dir``.
+    name : str
+        Experiment name when ``d`` has no ``name`` key.
+    label : str
+        File label for messages.
+    """
+    exp, entries = _experiment(d, Path(base_dir).resolve(), label, name)
+    if entries:
+        raise ConfigError(label, entries)
+    return exp
+
+
+def load_experiment(path: str | Path) -> Experiment:
+    """Load and validate an experiment file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The experiment YAML.  Its ``plant`` is a plant file path relative to the
+        experiment's folder or an inline plant mapping (key paths ``plant.motor...``);
+        ``reference`` is relative to that folder too.
+
+    Returns
+    -------
+    Experiment
+        ``name`` defaults to the file stem; ``solver`` to ``SolverOptions()``;
+        ``shift`` to off; ``initial_delta_deg`` to 0 (mesh centred) and must lie
+        within +-``backlash_deg/2``; ``shift_deg`` (0 ... ``backlash_deg``) to
+        None, meaning half the clearance.
+
+    Raises
+    ------
+    ConfigError
+        Listing every problem of the experiment and of its plant file.
+    """
+    path = Path(path)
+    return experiment_from_dict(read_yaml(path), base_dir=path.parent, name=path.stem,
+                                label=path.name)

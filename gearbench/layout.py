@@ -1,0 +1,117 @@
+"""Index layout shared by the packer (Python) and the compiled core (numba).
+
+The compiled core sees numbers, not objects: a plant, its controller and its
+effects are packed once into one float64 parameter vector ``p`` whose slots are
+named here.  Every quantity in ``p`` is SI (angles in rad, gains in V/rad, ...).
+Numba reads these module-level integers as compile-time constants.
+"""
+
+# ---- parameter vector p ---------------------------------------------------
+P_R = 0            # motor resistance, ohm
+P_L = 1            # motor inductance, H
+P_KT = 2           # torque constant, N m / A
+P_KE = 3           # back-emf constant, V s / rad
+P_JM = 4           # rotor inertia (+ pinion when there is no shaft), kg m^2
+P_BM = 5           # motor viscous damping, N m s / rad
+P_VMAX = 6         # voltage limit, V
+P_N = 7            # gear ratio, motor turns per output turn
+P_H = 8            # half the total clearance at the output gear, rad
+P_KMESH = 9        # mesh stiffness at the output gear, N m / rad
+P_DMESH = 10       # mesh damping at the output gear, N m s / rad
+P_LAW = 11         # contact law: LAW_DUBOWSKY or LAW_ELASTO
+P_JL = 12          # load inertia seen by the output gear (incl. reflected carriage), kg m^2
+P_BL = 13          # load viscous damping (incl. reflected carriage), N m s / rad
+P_HAS_SHAFT = 14   # 1.0 when a torsional shaft separates rotor and pinion
+P_KS = 15          # shaft stiffness, N m / rad
+P_DS = 16          # shaft damping, N m s / rad
+P_JP = 17          # pinion inertia, kg m^2 (only with a shaft)
+P_CTRL = 18        # controller kind: CTRL_*
+P_KP = 19          # proportional gain, V / rad
+P_KI = 20          # integral gain of Kp*(e + Ki*int e), 1/s
+P_KD = 21          # derivative gain of Kp*(... + Kd*de/dt), s
+P_TF = 22          # derivative filter time constant, s
+P_BAND = 23        # bang-bang half band, rad (no output while |e| <= band/2)
+P_SHIFT = 24       # set-point shift, rad (0 = off)
+P_TORQUE_IN = 25   # 1.0: the input drives the motor shaft as a torque (no electrics)
+P_SIZE = 32
+
+LAW_DUBOWSKY = 0.0
+LAW_ELASTO = 1.0
+
+CTRL_OPEN = 0.0      # the segment table is the motor voltage (or drive torque), zero-order hold
+CTRL_BANGBANG = 1.0
+CTRL_P = 2.0
+CTRL_PI = 3.0
+CTRL_PID = 4.0
+
+# ---- state vector x -------------------------------------------------------
+X_I = 0        # motor current, A
+X_THM = 1      # rotor angle, rad
+X_WM = 2       # rotor speed, rad/s
+X_PHI = 3      # shaft twist rotor - pinion, rad (0 without a shaft)
+X_WP = 4       # pinion speed, rad/s (unused without a shaft)
+X_DELTA = 5    # mesh relative angle at the output, theta_pinion/N - theta_load, rad
+X_WL = 6       # load speed, rad/s
+X_ZI = 7       # controller integral of the motor-side error, rad s
+X_ZD = 8       # derivative filter state, rad
+N_DYN = 9      # states with dynamics (Jacobian, implicit solve)
+X_IAE = 9      # integral of |output error|, rad s
+X_ISE = 10     # integral of output error squared, rad^2 s
+N_STATE = 11
+
+# ---- discrete modes -------------------------------------------------------
+M_CONTACT = 0  # -1, 0 (free flight), +1
+M_BB = 1       # bang-bang output sign -1, 0, +1
+M_SHIFT = 2    # sign used by the set-point shift: +1 when motor speed >= 0, else -1
+N_MODES = 3
+
+# ---- guards (an event fires when a guard goes from < 0 to >= 0) ----------
+G_ENTER_POS = 0
+G_ENTER_NEG = 1
+G_LEAVE = 2
+G_BB_A = 3
+G_BB_B = 4
+G_SHIFT = 5
+N_GUARDS = 6
+
+# ---- sampled output columns ----------------------------------------------
+O_SETPOINT = 0     # rad
+O_LOAD = 1         # load angle, rad
+O_MOTOR = 2        # rotor angle, rad
+O_VOLTAGE = 3      # applied voltage (or drive torque), V
+O_CURRENT = 4      # A
+O_WM = 5           # rad/s
+O_WL = 6           # rad/s
+O_TORQUE = 7       # mesh contact torque on the load, N m
+O_DELTA = 8        # mesh relative angle, rad
+N_OUT = 9
+
+# ---- run statistics ------------------------------------------------------
+S_STATUS = 0       # 0 ok, else a STATUS_* code
+S_T_FAIL = 1       # time the solver stopped, s
+S_IAE = 2          # rad s
+S_ISE = 3          # rad^2 s
+S_MAX_ERR = 4      # rad
+S_T_SAT = 5        # s spent with the controller output at the voltage limit
+S_IMPACTS = 6      # contact onsets
+S_SWITCHES = 7     # changes of sign of the applied voltage
+S_STEPS = 8        # accepted steps
+S_REJECTED = 9     # rejected steps
+S_EVENTS = 10      # located events
+S_FEVALS = 11      # right-hand-side evaluations
+N_STATS = 12
+
+STATUS_OK = 0
+STATUS_STEP_TOO_SMALL = 1
+STATUS_MAX_STEPS = 2
+STATUS_NONFINITE = 3
+
+STATUS_TEXT = {
+    STATUS_OK: "ok",
+    STATUS_STEP_TOO_SMALL: "step size fell below the round-off limit",
+    STATUS_MAX_STEPS: "step budget exhausted",
+    STATUS_NONFINITE: "state became non-finite",
+}
+
+METHOD_ROSENBROCK = 0  # ode23s: L-stable Rosenbrock 2(3), Shampine & Reichelt 1997
+METHOD_DOPRI = 1       # Dormand-Prince 5(4), explicit

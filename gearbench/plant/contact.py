@@ -1,0 +1,85 @@
+"""Contact laws of the gear mesh with backlash (an impact pair after Dubowsky).
+
+All quantities are at the output gear: ``delta`` = theta_pinion/N - theta_load
+(rad), ``ddelta`` its rate (rad/s), ``h`` half the total clearance (rad),
+``k`` mesh stiffness (N m/rad), ``d`` mesh damping (N m s/rad).  The returned
+torque acts on the load (positive drives it forward) and, divided by N, in
+reverse on the pinion.
+
+Penetration ``p = delta - h`` (delta > h), ``delta + h`` (delta < -h), else 0.
+
+* Dubowsky (SPEC default): ``T = k p + d ddelta`` while in contact, clipped so
+  the teeth never pull.  The damper torque ``d ddelta`` appears at once at
+  contact onset, so onset is a discontinuity the solver locates as an event.
+* Modelica ``ElastoBacklash``: with ``Tc = k p`` and ``Td = d ddelta``,
+  ``T = Tc + min(Tc, Td)`` on the positive flank (``max`` on the negative one),
+  and 0 once ``Tc + Td`` would pull: the damping torque is limited to the
+  spring torque, so T is continuous at onset.
+
+The solver keeps a contact mode (-1, 0, +1).  ``engaged_torque`` is the torque
+while engaged on flank ``mode``; ``unclipped`` is ``Tc + Td``, whose sign
+decides when the teeth separate (SOLVER-NOTES: leave contact on the sign of the
+torque, not on the penetration).
+"""
+import numba as nb
+
+from ..layout import LAW_ELASTO
+
+
+@nb.njit(cache=True)
+def penetration(delta, h):
+    """Overlap of the teeth beyond the clearance, rad (0 inside the dead zone)."""
+    if delta > h:
+        return delta - h
+    if delta < -h:
+        return delta + h
+    return 0.0
+
+
+@nb.njit(cache=True)
+def unclipped(delta, ddelta, h, k, d, mode):
+    """Spring plus damper torque ``k (delta - mode h) + d ddelta`` on flank ``mode``, N m."""
+    return k * (delta - mode * h) + d * ddelta
+
+
+@nb.njit(cache=True)
+def engaged_torque(delta, ddelta, h, k, d, law, mode):
+    """Contact torque on the load while engaged on flank ``mode`` (+1 or -1), N m."""
+    tc = k * (delta - mode * h)
+    td = d * ddelta
+    if law == LAW_ELASTO:
+        if mode > 0:
+            return tc + min(tc, td)
+        return tc + max(tc, td)
+    return tc + td
+
+
+@nb.njit(cache=True)
+def clipped_torque(delta, ddelta, h, k, d, law):
+    """The memoryless law: contact torque from the configuration alone, N m.
+
+    Used for checks and post-processing; the solver uses the mode-based form,
+    which is identical except exactly at the switching instants.
+    """
+    p = penetration(delta, h)
+    if p > 0.0:
+        t = unclipped(delta, ddelta, h, k, d, 1)
+        return engaged_torque(delta, ddelta, h, k, d, law, 1) if t > 0.0 else 0.0
+    if p < 0.0:
+        t = unclipped(delta, ddelta, h, k, d, -1)
+        return engaged_torque(delta, ddelta, h, k, d, law, -1) if t < 0.0 else 0.0
+    return 0.0
+
+
+@nb.njit(cache=True)
+def entry_guard(delta, ddelta, h, k, d, side):
+    """Guard that turns >= 0 when free teeth touch flank ``side``, in N m.
+
+    Outside the penetrated region it is the spring torque the contact would have,
+    ``k (side*delta - h)`` (< 0); inside it (the teeth overlap but the torque
+    would pull) it is the unclipped torque, so re-engagement without a gap is
+    caught too.
+    """
+    if side * delta <= h:
+        return k * (side * delta - h)
+    return side * unclipped(delta, ddelta, h, k, d, side)

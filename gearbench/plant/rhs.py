@@ -1,0 +1,103 @@
+"""Right-hand side of the geartrain, compiled (SPEC section 2).
+
+States (``gearbench.layout``): current ``i``, rotor angle ``theta_m`` and speed
+``w_m``, shaft twist ``phi`` and pinion speed ``w_p`` (only with a shaft), mesh
+relative angle ``delta = theta_p/N - theta_l``, load speed ``w_l``, controller
+states, and two error quadratures.  Equations (SI units)::
+
+    L di/dt      = u - R i - ke w_m
+    Jm dw_m/dt   = kt i - bm w_m - T/N                (rigid shaft)
+    Jr dw_m/dt   = kt i - bm w_m - Ts,  Ts = ks phi + ds (w_m - w_p)
+    Jp dw_p/dt   = Ts - T/N,            dphi/dt = w_m - w_p   (with a shaft)
+    d delta/dt   = w_p/N - w_l
+    Jl dw_l/dt   = T - bl w_l
+
+``T`` is the mesh contact torque of ``plant.contact``.  With a torque input the
+electrical part drops out and ``u`` is the drive torque on the rotor (N m).
+"""
+import numba as nb
+
+from ..control.laws import command, control_error, saturate
+from ..layout import (CTRL_OPEN, CTRL_PID, M_CONTACT, P_BL, P_BM, P_CTRL, P_DMESH, P_DS,
+                      P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE, P_KMESH, P_KS,
+                      P_KT, P_L, P_LAW, P_N, P_R, P_TF, P_TORQUE_IN, P_VMAX,
+                      X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM,
+                      X_WP, X_ZD, X_ZI)
+from .contact import engaged_torque
+
+
+@nb.njit(cache=True)
+def pinion_speed(x, p):
+    """Pinion speed, rad/s: the rotor's unless a shaft separates them."""
+    return x[X_WP] if p[P_HAS_SHAFT] > 0.0 else x[X_WM]
+
+
+@nb.njit(cache=True)
+def load_angle(x, p):
+    """Output angle ``theta_l = (theta_m - phi)/N - delta``, rad."""
+    return (x[X_THM] - x[X_PHI]) / p[P_N] - x[X_DELTA]
+
+
+@nb.njit(cache=True)
+def mesh_rate(x, p):
+    """``d delta/dt = w_p/N - w_l``, rad/s."""
+    return pinion_speed(x, p) / p[P_N] - x[X_WL]
+
+
+@nb.njit(cache=True)
+def mesh_torque(x, p, modes):
+    """Contact torque on the load in the current contact mode, N m."""
+    m = modes[M_CONTACT]
+    if m == 0:
+        return 0.0
+    return engaged_torque(x[X_DELTA], mesh_rate(x, p), p[P_H], p[P_KMESH],
+                          p[P_DMESH], p[P_LAW], m)
+
+
+@nb.njit(cache=True)
+def applied_input(x, p, modes, ref):
+    """Input after saturation: motor voltage (V) or drive torque (N m)."""
+    u = command(x, p, modes, ref, p[P_CTRL])
+    return saturate(u, p[P_VMAX])
+
+
+@nb.njit(cache=True)
+def rhs(x, p, modes, ref, out):
+    """Write dx/dt into ``out`` for state ``x`` and set point (or input) ``ref``."""
+    n = p[P_N]
+    u = applied_input(x, p, modes, ref)
+    wm = x[X_WM]
+    if p[P_TORQUE_IN] > 0.0:
+        out[X_I] = 0.0
+        tm = u
+    else:
+        out[X_I] = (u - p[P_R] * x[X_I] - p[P_KE] * wm) / p[P_L]
+        tm = p[P_KT] * x[X_I]
+    t_mesh = mesh_torque(x, p, modes)
+    out[X_THM] = wm
+    if p[P_HAS_SHAFT] > 0.0:
+        wp = x[X_WP]
+        ts = p[P_KS] * x[X_PHI] + p[P_DS] * (wm - wp)
+        out[X_WM] = (tm - p[P_BM] * wm - ts) / p[P_JM]
+        out[X_PHI] = wm - wp
+        out[X_WP] = (ts - t_mesh / n) / p[P_JP]
+    else:
+        wp = wm
+        out[X_WM] = (tm - p[P_BM] * wm - t_mesh / n) / p[P_JM]
+        out[X_PHI] = 0.0
+        out[X_WP] = 0.0
+    out[X_DELTA] = wp / n - x[X_WL]
+    out[X_WL] = (t_mesh - p[P_BL] * x[X_WL]) / p[P_JL]
+    if p[P_CTRL] == CTRL_OPEN:
+        # open loop: `ref` is the input itself, there is no error to score
+        out[X_ZI] = 0.0
+        out[X_ZD] = 0.0
+        out[X_IAE] = 0.0
+        out[X_ISE] = 0.0
+        return
+    e = control_error(x, p, modes, ref)
+    out[X_ZI] = e
+    out[X_ZD] = (e - x[X_ZD]) / p[P_TF] if p[P_CTRL] == CTRL_PID else 0.0
+    err = ref - load_angle(x, p)
+    out[X_IAE] = abs(err)
+    out[X_ISE] = err * err

@@ -1,0 +1,1 @@
+"""Reports: tables (CSV, Markdown, rich) and figures (matplotlib), pure functions of results."""

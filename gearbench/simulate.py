@@ -1,0 +1,171 @@
+"""Simulate one run: the small solver interface behind one function.
+
+>>> from gearbench.simulate import simulate                     # doctest: +SKIP
+>>> run = simulate(plant, Controller("p", kp=50), profile.segments(), 10.0)
+>>> run.iae_deg_s
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from . import layout as L
+from .control.controllers import Controller, pack_controller
+from .plant.components import Plant
+from .plant.pack import pack_plant, rest_state, tolerance_scales
+from .solver.integrate import integrate
+
+METHODS = {"rosenbrock23": L.METHOD_ROSENBROCK, "ode23s": L.METHOD_ROSENBROCK,
+           "dopri5": L.METHOD_DOPRI, "ode45": L.METHOD_DOPRI}
+
+
+class Segments(NamedTuple):
+    """Piecewise-linear input: on ``[t[k], t[k+1])`` the value is ``v[k] + s[k] (t - t[k])``.
+
+    SI units: s, and rad (set point) or V / N m (open-loop input).
+    """
+    t: np.ndarray
+    v: np.ndarray
+    s: np.ndarray
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """method: ``rosenbrock23`` (alias ``ode23s``, default, stiff) or ``dopri5``
+    (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
+    follow from each state's typical scale); max_step_s: largest step, s;
+    output_dt_s: sampling interval of the returned trace, s."""
+    method: str = "rosenbrock23"
+    rtol: float = 1e-6
+    max_step_s: float = 1e-3
+    max_steps: int = 20_000_000
+    output_dt_s: float = 1e-3
+
+
+class SolverError(RuntimeError):
+    """A run the solver could not finish; the message says where and why."""
+
+
+@dataclass
+class RunResult:
+    """A finished (or failed) run: sampled trace and scores."""
+    time_s: np.ndarray
+    outputs: np.ndarray
+    stats: np.ndarray
+    t_end: float
+    label: str = ""
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return int(self.stats[L.S_STATUS]) == L.STATUS_OK
+
+    @property
+    def status(self) -> str:
+        return L.STATUS_TEXT[int(self.stats[L.S_STATUS])]
+
+    @property
+    def iae_deg_s(self) -> float:
+        """Integrated absolute output error, deg s."""
+        return math.degrees(self.stats[L.S_IAE])
+
+    @property
+    def rms_deg(self) -> float:
+        """Root-mean-square output error, deg."""
+        return math.degrees(math.sqrt(self.stats[L.S_ISE] / self.t_end))
+
+    @property
+    def max_deg(self) -> float:
+        """Largest output error seen at a step end or a set-point jump, deg."""
+        return math.degrees(self.stats[L.S_MAX_ERR])
+
+    @property
+    def saturated_fraction(self) -> float:
+        """Fraction of the run with the controller at its voltage limit."""
+        return self.stats[L.S_T_SAT] / self.t_end
+
+    @property
+    def impacts(self) -> int:
+        return int(self.stats[L.S_IMPACTS])
+
+    @property
+    def switchings(self) -> int:
+        """Changes of sign of the applied voltage (bang-bang: every switch)."""
+        return int(self.stats[L.S_SWITCHES])
+
+    @property
+    def steps(self) -> int:
+        return int(self.stats[L.S_STEPS])
+
+    def scores(self) -> dict:
+        """The run's figures of merit as plain numbers."""
+        return {
+            "iae_deg_s": self.iae_deg_s,
+            "rms_deg": self.rms_deg,
+            "max_deg": self.max_deg,
+            "saturated_fraction": self.saturated_fraction,
+            "impacts": self.impacts,
+            "switchings": self.switchings,
+            "steps": self.steps,
+        }
+
+    def column(self, name: int) -> np.ndarray:
+        return self.outputs[:, name]
+
+
+def pack(plant: Plant, controller: Controller) -> np.ndarray:
+    """The compiled core's parameter vector for this plant and controller."""
+    p = pack_plant(plant)
+    return pack_controller(controller, plant.gear.backlash_deg, p)
+
+
+def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: float,
+             options: SolverOptions = SolverOptions(), delta0: float = 0.0,
+             label: str = "", raise_on_failure: bool = False) -> RunResult:
+    """Simulate ``plant`` under ``controller`` following ``inputs`` for ``t_end`` s.
+
+    ``delta0`` places the mesh inside its clearance at the start (rad, 0 =
+    centred).  A failed run comes back with ``ok == False`` and its status,
+    or raises :class:`SolverError` naming the run, the time and the likely
+    cause when ``raise_on_failure``.
+    """
+    run = simulate_packed(pack(plant, controller), tolerance_scales(plant), inputs, t_end,
+                          rest_state(plant, delta0), options, label)
+    if raise_on_failure and not run.ok:
+        raise SolverError(failure_message(run, plant.name))
+    return run
+
+
+def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: float,
+                    x0: np.ndarray, options: SolverOptions = SolverOptions(),
+                    label: str = "") -> RunResult:
+    """Lower-level entry: an already packed parameter vector ``p`` (``layout.P_*``),
+    the states' typical scales (``atol = rtol * scales``) and an initial state."""
+    if options.method not in METHODS:
+        raise ValueError(f"unknown solver method {options.method!r}; choose one of {sorted(METHODS)}")
+    n_out = int(round(t_end / options.output_dt_s)) + 1
+    t_out = np.linspace(0.0, t_end, n_out)
+    outputs, stats, x_end = integrate(
+        np.asarray(p, dtype=float), np.ascontiguousarray(inputs.t, dtype=float),
+        np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
+        float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
+        options.rtol * np.asarray(scales, dtype=float), float(options.max_step_s),
+        METHODS[options.method], int(options.max_steps))
+    return RunResult(t_out, outputs, stats, float(t_end), label, {"x_end": x_end})
+
+
+def failure_message(run: RunResult, name: str) -> str:
+    """Which run failed, where in time, and the likely cause."""
+    t = run.stats[L.S_T_FAIL]
+    hint = {
+        L.STATUS_STEP_TOO_SMALL: "the plant is probably unphysical or far too stiff for the tolerance "
+                                 "(check mesh_stiffness/mesh_damping against the inertias, and the gains)",
+        L.STATUS_MAX_STEPS: "a chattering mode switch (bang-bang band or set-point shift) or an unstable gain; "
+                            "widen the band, lower the gain, or raise max_steps",
+        L.STATUS_NONFINITE: "the state blew up: an unstable gain or a non-physical parameter",
+    }.get(int(run.stats[L.S_STATUS]), "")
+    name = run.label or name
+    return f"run {name!r} failed at t = {t:.6g} s: {run.status}; likely cause: {hint}"

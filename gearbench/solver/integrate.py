@@ -1,0 +1,346 @@
+"""The integration loop, compiled: step-size control, events, output, scores.
+
+The input (set point, or the open-loop voltage) is a table of segments:
+on ``[seg_t[k], seg_t[k+1])`` it is ``seg_v[k] + seg_s[k] (t - seg_t[k])``.
+The loop integrates segment by segment, so a step never straddles a corner
+or a jump of the input, and locates every mode switch inside a segment as an
+event (``events.py``): it finds the guard's root on the step's cubic Hermite
+interpolant, re-takes the step to land on it, switches the mode and restarts.
+"""
+import math
+
+import numba as nb
+import numpy as np
+
+from ..control.laws import command
+from ..layout import (CTRL_OPEN, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, M_CONTACT,
+                      METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
+                      N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
+                      O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
+                      P_CTRL, P_VMAX, S_EVENTS, S_FEVALS, S_IAE, S_IMPACTS,
+                      S_ISE, S_MAX_ERR, S_REJECTED, S_STATUS, S_STEPS,
+                      S_SWITCHES, S_T_FAIL, S_T_SAT, STATUS_MAX_STEPS,
+                      STATUS_NONFINITE, STATUS_STEP_TOO_SMALL, X_I, X_IAE,
+                      X_ISE, X_DELTA, X_THM, X_WL, X_WM)
+from ..plant.rhs import applied_input, load_angle, mesh_torque, rhs
+from .events import apply_event, classify, classify_bangbang, guards
+from .steppers import dopri5, hermite, rosenbrock23
+
+
+@nb.njit(cache=True)
+def _sign(v):
+    return 1 if v > 0.0 else (-1 if v < 0.0 else 0)
+
+
+@nb.njit(cache=True)
+def _write_output(row, x, p, modes, ref):
+    row[O_SETPOINT] = ref
+    row[O_LOAD] = load_angle(x, p)
+    row[O_MOTOR] = x[X_THM]
+    row[O_VOLTAGE] = applied_input(x, p, modes, ref)
+    row[O_CURRENT] = x[X_I]
+    row[O_WM] = x[X_WM]
+    row[O_WL] = x[X_WL]
+    row[O_TORQUE] = mesh_torque(x, p, modes)
+    row[O_DELTA] = x[X_DELTA]
+
+
+@nb.njit(cache=True)
+def _locate(j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0):
+    """Root of guard ``j`` on the step's interpolant in ``(0, hi0]`` (Illinois),
+    where the guard is < 0 at 0 and >= 0 at ``hi0``; returns theta."""
+    lo, hi = 0.0, hi0
+    glo, ghi = g0j, 1.0  # only the sign of ghi matters for bracketing
+    if hi0 >= 1.0:
+        guards(xn, p, modes, ref_t + slope * hh, gt)
+    else:
+        hermite(hi0, hh, x, f, xn, fn, xi)
+        guards(xi, p, modes, ref_t + slope * hi0 * hh, gt)
+    ghi = gt[j]
+    tol = max(1e-13 * max(1.0, abs(t)) / hh, 1e-15)
+    side = 0
+    for _ in range(200):
+        if hi - lo <= tol:
+            break
+        denom = ghi - glo
+        th = hi - ghi * (hi - lo) / denom if denom != 0.0 else 0.5 * (lo + hi)
+        if not (lo < th < hi):
+            th = 0.5 * (lo + hi)
+        hermite(th, hh, x, f, xn, fn, xi)
+        guards(xi, p, modes, ref_t + slope * th * hh, gt)
+        gm = gt[j]
+        if gm >= 0.0:
+            hi, ghi = th, gm
+            if side == 1:
+                glo *= 0.5
+            side = 1
+        else:
+            lo, glo = th, gm
+            if side == -1:
+                ghi *= 0.5
+            side = -1
+    return hi
+
+
+@nb.njit(cache=True)
+def _delta_extrema(hh, x, f, xn, fn, out):
+    """Interior extrema of the mesh angle on the step's cubic Hermite interpolant.
+
+    Writes the roots in (0, 1) of d(delta)/d(theta), a quadratic, into ``out``
+    and returns how many there are (0, 1 or 2).
+    """
+    dy = x[X_DELTA] - xn[X_DELTA]
+    d0 = hh * f[X_DELTA]
+    d1 = hh * fn[X_DELTA]
+    a = 6.0 * dy + 3.0 * (d0 + d1)
+    b = -6.0 * dy - 4.0 * d0 - 2.0 * d1
+    c = d0
+    n = 0
+    scale = abs(a) + abs(b) + abs(c)
+    if scale == 0.0:
+        return 0
+    if abs(a) <= 1e-12 * scale:
+        if b != 0.0:
+            r = -c / b
+            if 0.0 < r < 1.0:
+                out[n] = r
+                n += 1
+        return n
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        return 0
+    sq = math.sqrt(disc)
+    q = -0.5 * (b + sq) if b >= 0.0 else -0.5 * (b - sq)
+    r1 = q / a
+    r2 = c / q if q != 0.0 else r1
+    if r2 < r1:
+        r1, r2 = r2, r1
+    if 0.0 < r1 < 1.0:
+        out[n] = r1
+        n += 1
+    if 0.0 < r2 < 1.0 and r2 != r1:
+        out[n] = r2
+        n += 1
+    return n
+
+
+@nb.njit(cache=True)
+def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
+    """Integrate from rest state ``x0`` at t = 0 to ``t_end``.
+
+    Returns ``(outputs, stats, x_end)``: ``outputs[len(t_out), N_OUT]`` sampled
+    on ``t_out`` (NaN past a failure), ``stats[N_STATS]`` (``layout.S_*``).
+    """
+    n = N_STATE
+    outputs = np.full((t_out.size, N_OUT), np.nan)
+    stats = np.zeros(N_STATS)
+    modes = np.zeros(N_MODES, dtype=np.int64)
+    x = x0.copy()
+    f = np.empty(n)
+    xn = np.empty(n)
+    fn = np.empty(n)
+    xi = np.empty(n)
+    ws = np.empty((8 + N_DYN, n))
+    g0 = np.empty(N_GUARDS)
+    g1 = np.empty(N_GUARDS)
+    gt = np.empty(N_GUARDS)
+    g2 = np.empty(N_GUARDS)
+    thq = np.empty(2)
+    scale = atol / rtol
+    vmax = p[P_VMAX]
+    closed = p[P_CTRL] != CTRL_OPEN
+    rosen = method == METHOD_ROSENBROCK
+    order_exp = 1.0 / 3.0 if rosen else 1.0 / 5.0
+
+    t = 0.0
+    classify(x, p, modes, seg_v[0])
+    io = 0
+    while io < t_out.size and t_out[io] <= t:
+        _write_output(outputs[io], x, p, modes, seg_v[0])
+        io += 1
+    last_sign = _sign(applied_input(x, p, modes, seg_v[0]))
+    h = min(hmax, 1e-5)
+    max_err = 0.0
+    t_sat = 0.0
+    switches = 0
+    impacts = 0
+    nsteps = 0
+    nrej = 0
+    nev = 0
+    nfe = 0
+    status = 0
+    nseg = seg_t.size
+    for k in range(nseg):
+        ta = seg_t[k]
+        if ta >= t_end:
+            break
+        tb = seg_t[k + 1] if k + 1 < nseg else t_end
+        tb = min(tb, t_end)
+        if tb <= ta:
+            continue
+        v0 = seg_v[k]
+        s = seg_s[k]
+        t = ta
+        if closed:
+            classify_bangbang(x, p, modes, v0)
+            max_err = max(max_err, abs(v0 - load_angle(x, p)))
+        rhs(x, p, modes, v0, f)
+        nfe += 1
+        while t < tb:
+            if nsteps + nrej > max_steps:
+                status = STATUS_MAX_STEPS
+                break
+            hh = min(h, hmax)
+            last = hh >= (tb - t) * (1.0 - 1e-12)
+            if last:
+                hh = tb - t
+            ref_t = v0 + s * (t - ta)
+            if rosen:
+                err, ne = rosenbrock23(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+            else:
+                err, ne = dopri5(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+            nfe += ne
+            if not (err <= 1.0):
+                nrej += 1
+                fac = 0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** (-order_exp))
+                h = hh * fac
+                if h < 1e-14 * max(1.0, abs(t)):
+                    status = STATUS_STEP_TOO_SMALL if math.isfinite(err) else STATUS_NONFINITE
+                    break
+                continue
+            # the step is acceptable: did a guard fire inside it?
+            guards(x, p, modes, ref_t, g0)
+            guards(xn, p, modes, ref_t + s * hh, g1)
+            which = -1
+            theta = 1.0
+            for j in range(N_GUARDS):
+                if g0[j] < 0.0 and g1[j] >= 0.0:
+                    th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, 1.0)
+                    if which < 0 or th < theta:
+                        theta = th
+                        which = j
+            if modes[M_CONTACT] == 0:
+                # A graze can open and close inside one step (the motor swings
+                # into a flank and back out): both ends show the teeth apart and
+                # the impact is missed, the gears pass through each other.  The
+                # entry guards grow with side*delta, so also test them where
+                # delta's interpolant has an interior extremum.
+                nq = _delta_extrema(hh, x, f, xn, fn, thq)
+                for q in range(nq):
+                    tq = thq[q]
+                    if which >= 0 and tq >= theta:
+                        continue
+                    hermite(tq, hh, x, f, xn, fn, xi)
+                    guards(xi, p, modes, ref_t + s * tq * hh, g2)
+                    for j in (G_ENTER_POS, G_ENTER_NEG):
+                        if g0[j] < 0.0 and g1[j] < 0.0 and g2[j] >= 0.0:
+                            th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, tq)
+                            if which < 0 or th < theta:
+                                theta = th
+                                which = j
+            h_next = hh * min(5.0, max(0.2, 0.9 * max(err, 1e-10) ** (-order_exp)))
+            if which >= 0:
+                hs = theta * hh
+                if hs < 1e-13 * max(1.0, abs(t)):
+                    hs = 0.0
+                elif theta < 1.0:
+                    if rosen:
+                        err, ne = rosenbrock23(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+                    else:
+                        err, ne = dopri5(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+                    nfe += ne
+                    # The root was found on the long step's interpolant, whose
+                    # error is not controlled; the re-taken step can end short
+                    # of the crossing (teeth still apart by up to ~1e-8 rad).
+                    # Switching the mode there engages the contact across an
+                    # open gap (a torque in the dead zone, or a pull).  Then
+                    # retry with the shorter step as a plain one: the next step
+                    # finds the crossing again, from much closer.
+                    guards(xn, p, modes, ref_t + s * hs, gt)
+                    if gt[which] < 0.0:
+                        nrej += 1
+                        h = hs
+                        continue
+                hh = hs
+                last = last and theta >= 1.0
+                h_next = max(h, 1e-12 * max(1.0, abs(t)))
+            if hh > 0.0:
+                t1 = tb if last else t + hh
+                # sample the outputs on (t, t1]
+                while io < t_out.size and t_out[io] <= t1:
+                    th = (t_out[io] - t) / hh
+                    hermite(th, hh, x, f, xn, fn, xi)
+                    _write_output(outputs[io], xi, p, modes, v0 + s * (t_out[io] - ta))
+                    io += 1
+                if closed:
+                    hermite(0.5, hh, x, f, xn, fn, xi)
+                    u_mid = command(xi, p, modes, ref_t + 0.5 * s * hh, p[P_CTRL])
+                    if abs(u_mid) >= vmax:
+                        t_sat += hh
+                for i in range(n):
+                    x[i] = xn[i]
+                    f[i] = fn[i]
+                t = t1
+                nsteps += 1
+                ok = True
+                for i in range(n):
+                    if not math.isfinite(x[i]):
+                        ok = False
+                if not ok:
+                    status = STATUS_NONFINITE
+                    break
+                if closed:
+                    max_err = max(max_err, abs(ref_t + s * hh - load_angle(x, p)))
+            if which >= 0:
+                nev += 1
+                impacts += apply_event(which, x, p, modes, v0 + s * (t - ta))
+                rhs(x, p, modes, v0 + s * (t - ta), f)
+                nfe += 1
+            # Re-arm the contact guards.  A guard fires only on a crossing from
+            # < 0, so a guard of the current contact mode that is already > 0
+            # here never fires: after a refused separation (the leave guard is
+            # left at or just above 0) or an event applied a hair before its
+            # root, the teeth would stay stuck pulling, or pass through each
+            # other.  Such a mode is stale: switch it now (a separation still
+            # goes through apply_event's refusal test, now at every step).
+            # Only after a step that advanced time: an event applied where it
+            # stands (hs = 0) is judged after the next step, else the two
+            # could undo each other forever.
+            ref_now = v0 + s * (t - ta)
+            stale = -1
+            cm = modes[M_CONTACT]
+            if hh > 0.0:
+                guards(x, p, modes, ref_now, g2)
+                if cm != 0:
+                    if g2[G_LEAVE] > 0.0:
+                        stale = G_LEAVE
+                elif g2[G_ENTER_POS] > 0.0:
+                    stale = G_ENTER_POS
+                elif g2[G_ENTER_NEG] > 0.0:
+                    stale = G_ENTER_NEG
+            if stale >= 0:
+                impacts += apply_event(stale, x, p, modes, ref_now)
+                if modes[M_CONTACT] != cm:
+                    nev += 1
+                    rhs(x, p, modes, ref_now, f)
+                    nfe += 1
+            sg = _sign(applied_input(x, p, modes, v0 + s * (t - ta)))
+            if sg != last_sign:
+                switches += 1
+                last_sign = sg
+            h = h_next
+        if status != 0:
+            break
+    stats[S_STATUS] = status
+    stats[S_T_FAIL] = t
+    stats[S_IAE] = x[X_IAE]
+    stats[S_ISE] = x[X_ISE]
+    stats[S_MAX_ERR] = max_err
+    stats[S_T_SAT] = t_sat
+    stats[S_IMPACTS] = impacts
+    stats[S_SWITCHES] = switches
+    stats[S_STEPS] = nsteps
+    stats[S_REJECTED] = nrej
+    stats[S_EVENTS] = nev
+    stats[S_FEVALS] = nfe
+    return outputs, stats, x

@@ -1,0 +1,119 @@
+"""Engaged linear model: matrix against the compiled right-hand side, modes against
+closed forms, headline figures against a simulation."""
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gearbench import layout as L
+from gearbench.control.controllers import Controller
+from gearbench.plant.components import Gear, Leadscrew, Load, Motor, Plant, Shaft
+from gearbench.plant.linear import (engaged_matrix, engaged_state_space, modes, plant_info,
+                                    state_names)
+from gearbench.simulate import Segments, pack, simulate
+
+MOTOR = Motor(resistance=2.5, inductance=1.0e-3, torque_constant=0.02, back_emf_constant=0.02,
+              inertia=1.0e-6, damping=1.0e-6, max_voltage=12.0)
+SAMPLE = Plant(MOTOR, Gear(100.0, 3.0, 2.4e7, 3.4), Load(5.0e-5, 15.0), name="sample")
+LIGHT = Plant(MOTOR, Gear(100.0, 3.0, 2.4e7, 0.01), Load(5.0e-5, 1.0e-4), name="light")
+SHAFT = replace(LIGHT, motor=replace(MOTOR, inertia=7e-7), shaft=Shaft(50.0, 1e-5, 3e-7))
+SCREW = replace(SAMPLE, leadscrew=Leadscrew(lead_mm=1.27, mass=0.5, damping=2.0))
+
+COLUMNS = {"i": L.X_I, "theta_m": L.X_THM, "w_m": L.X_WM, "phi": L.X_PHI, "w_p": L.X_WP,
+           "delta": L.X_DELTA, "w_l": L.X_WL}
+
+
+def mesh_closed_form(plant):
+    """Undamped mesh frequency of the two-inertia system, Hz."""
+    jm = plant.motor.inertia + (plant.shaft.pinion_inertia if plant.shaft else 0.0)
+    n, k = plant.gear.ratio, plant.gear.mesh_stiffness
+    return math.sqrt(k * (1.0 / plant.output_inertia + 1.0 / (jm * n ** 2))) / (2 * math.pi)
+
+
+@pytest.mark.parametrize("plant", [SAMPLE, SHAFT, SCREW], ids=["rigid", "shaft", "leadscrew"])
+def test_matrix_matches_compiled_rhs(plant):
+    """Engaged on the positive flank, the compiled rhs is affine: its differences are A."""
+    from gearbench.plant.rhs import rhs
+    p = pack(plant, Controller("open"))
+    modes_ = np.zeros(L.N_MODES, dtype=np.int64)
+    modes_[L.M_CONTACT] = 1
+    ss = engaged_state_space(plant)
+    x0 = np.zeros(L.N_STATE)
+    x0[L.X_DELTA] = plant.gear.half_clearance + 1e-6
+    f0 = np.zeros(L.N_STATE)
+    rhs(x0, p, modes_, 0.0, f0)
+    rows = [COLUMNS[s] for s in ss.states]
+    for j, name in enumerate(ss.states):
+        x = x0.copy()
+        x[COLUMNS[name]] += 1.0
+        f = np.zeros(L.N_STATE)
+        rhs(x, p, modes_, 0.0, f)
+        np.testing.assert_allclose((f - f0)[rows], ss.a[:, j], rtol=1e-9,
+                                   atol=1e-9 * np.abs(ss.a).max(), err_msg=name)
+    f = np.zeros(L.N_STATE)
+    rhs(x0, p, modes_, 1.0, f)  # one volt of input
+    np.testing.assert_allclose((f - f0)[rows], ss.b, rtol=1e-9)
+
+
+def test_state_names_and_torque_input():
+    assert state_names(SAMPLE) == ("i", "theta_m", "w_m", "delta", "w_l")
+    assert state_names(SHAFT) == ("i", "theta_m", "w_m", "phi", "w_p", "delta", "w_l")
+    ss = engaged_state_space(SAMPLE, electrics=False)
+    assert ss.states == ("theta_m", "w_m", "delta", "w_l")
+    assert ss.b[1] == pytest.approx(1.0 / MOTOR.inertia)
+    assert engaged_matrix(SHAFT).shape == (7, 7)
+    assert modes(SAMPLE, electrics=False)[-1][0] == pytest.approx(modes(SAMPLE)[-1][0], rel=1e-3)
+
+
+def test_mesh_frequency_matches_closed_form():
+    info = plant_info(LIGHT)
+    assert info["mesh_frequency_hz"] == pytest.approx(mesh_closed_form(LIGHT), rel=0.01)
+    assert info["mesh_frequency_hz"] == pytest.approx(110_541, rel=0.01)
+    assert 0.0 < info["mesh_damping_ratio"] < 0.01
+    assert modes(LIGHT)[-1][0] == info["mesh_frequency_hz"]  # the highest mode
+    assert info["shaft_frequency_hz"] is None
+
+
+def test_shaft_mode_is_found_by_participation():
+    info = plant_info(SHAFT)
+    n = SHAFT.gear.ratio
+    jp = SHAFT.shaft.pinion_inertia + SHAFT.output_inertia / n ** 2  # mesh rigid at this scale
+    closed = math.sqrt(50.0 * (1.0 / SHAFT.motor.inertia + 1.0 / jp)) / (2 * math.pi)
+    assert info["shaft_frequency_hz"] == pytest.approx(closed, rel=0.02)
+    assert info["mesh_frequency_hz"] == pytest.approx(mesh_closed_form(SHAFT), rel=0.05)
+    states = {m["dominant_state"] for m in info["modes"]}
+    assert {"phi", "delta"} <= states
+
+
+def test_headline_figures():
+    info = plant_info(SAMPLE)
+    b = 1e-6 + 15.0 / 100 ** 2
+    w0 = 0.02 * 12.0 / (2.5 * b + 0.02 * 0.02)
+    assert info["ratio"] == 100.0 and info["clearance_deg"] == 3.0
+    assert info["electrical_time_constant_s"] == pytest.approx(4e-4)
+    assert info["mechanical_time_constant_s"] == pytest.approx(2.5 * (1e-6 + 5e-9) / 4e-4)
+    assert info["stall_torque_Nm"] == pytest.approx(0.096)
+    assert info["stall_torque_output_Nm"] == pytest.approx(9.6)
+    assert info["no_load_speed_rad_s"] == pytest.approx(w0)
+    assert info["no_load_speed_rpm"] == pytest.approx(w0 * 60 / (2 * math.pi))
+    assert info["output_top_speed_deg_s"] == pytest.approx(math.degrees(w0 / 100))
+    assert "top_speed_mm_s" not in info and "top_speed_in_s" not in info
+
+
+def test_leadscrew_top_speed():
+    info = plant_info(SCREW)
+    r = 1.27e-3 / (2 * math.pi)
+    b = 1e-6 + (15.0 + 2.0 * r ** 2) / 100 ** 2
+    w_out = 0.02 * 12.0 / (2.5 * b + 4e-4) / 100
+    assert info["top_speed_mm_s"] == pytest.approx(w_out * 1.27 / (2 * math.pi))
+    assert info["top_speed_in_s"] == pytest.approx(info["top_speed_mm_s"] / 25.4)
+
+
+@pytest.mark.parametrize("plant", [SAMPLE, SHAFT], ids=["rigid", "shaft"])
+def test_no_load_speed_matches_simulation(plant):
+    vmax = plant.motor.max_voltage
+    run = simulate(plant, Controller("open"),
+                   Segments(t=np.array([0.0]), v=np.array([vmax]), s=np.array([0.0])), 2.0)
+    assert run.ok, run.status
+    assert run.outputs[-1, L.O_WM] == pytest.approx(plant_info(plant)["no_load_speed_rad_s"], rel=1e-3)
