@@ -1,5 +1,5 @@
 # gearbench: two commands set everything up on a fresh machine.
-#   make run   - create .venv, install, reproduce Table I into results/
+#   make run   - create .venv, install, reproduce Table I and the gain scan into results/
 #   make test  - create .venv, install with test extras, run the test suite
 PYTHON ?= python3
 VENV := .venv
@@ -19,12 +19,21 @@ install-test: $(BIN)/python
 
 run: install
 	$(BIN)/gearbench run experiments/table1.yaml
+	$(BIN)/gearbench sweep experiments/gain_scan.yaml --param controller.kp=0.5,5,50,500,5000 \
+		--summary results/gain_scan.md
+	$(BIN)/gearbench sweep experiments/gain_scan.yaml --param "controller.kp=geomspace(50,5000,11)" \
+		--results results/gain_scan_fine --summary results/gain_scan.md
+	$(BIN)/gearbench stability experiments/plants/thesis_gear.yaml --controller p \
+		--at 0.5,1,5,50,88,126,500,1256,1448,5000 --markdown results/gain_scan.md
+	$(BIN)/gearbench stability experiments/plants/thesis_gear.yaml --controller pi --ki 0.005 \
+		--markdown results/gain_scan.md
 
 test: install-test
 	$(BIN)/python -m pytest -q
 
 bench: install
 	$(BIN)/python benchmarks/bench_table1.py
+	$(BIN)/python benchmarks/bench_sweep.py
 
 clean-cache:
 	rm -rf $$HOME/.cache/gearbench

@@ -128,5 +128,10 @@ def info(plant_file: Path, as_json: bool) -> None:
                         f"{mode['damping_ratio']:.3g}, mostly {mode['dominant_state']}")
 
 
+from .cli_sweep import stability, sweep  # noqa: E402 - registered after the group exists
+
+main.add_command(sweep)
+main.add_command(stability)
+
 if __name__ == "__main__":
     main()

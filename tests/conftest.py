@@ -40,6 +40,14 @@ def reversal_profile() -> Segments:
                     s=np.array([0.0, r(40), 0.0, -r(40), 0.0]))
 
 
+def ramp_hold_ramp_profile() -> Segments:
+    """10 s thesis-like run: rest 0.5 s, ramp to 90 deg at 36 deg/s, hold 2 s, ramp back (rad)."""
+    r = math.radians
+    return Segments(t=np.array([0.0, 0.5, 3.0, 5.0, 7.5]),
+                    v=np.array([0.0, 0.0, r(90), r(90), 0.0]),
+                    s=np.array([0.0, r(36), 0.0, -r(36), 0.0]))
+
+
 def penetration(delta: np.ndarray, h: float) -> np.ndarray:
     """Overlap of the teeth beyond the clearance (vectorised SPEC section 2 ``p``)."""
     return np.where(delta > h, delta - h, np.where(delta < -h, delta + h, 0.0))
@@ -102,6 +110,6 @@ def run_free_pair(p, scales, x0, t_end, rtol=1e-8, output_dt=None, method="rosen
     return run
 
 
-__all__ = ["small_plant", "reversal_profile", "penetration", "free_pair", "free_pair_scales",
+__all__ = ["small_plant", "reversal_profile", "ramp_hold_ramp_profile", "penetration", "free_pair", "free_pair_scales",
            "run_free_pair", "ZERO_INPUT", "Controller", "pack", "rest_state",
            "tolerance_scales", "simulate_packed", "SolverOptions", "Segments"]

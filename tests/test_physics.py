@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from conftest import (Controller, Segments, SolverOptions, free_pair, free_pair_scales,
-                      penetration, reversal_profile, run_free_pair, small_plant)
+                      penetration, ramp_hold_ramp_profile, reversal_profile, run_free_pair,
+                      small_plant)
 from gearbench import layout as L
 from gearbench.plant.contact import clipped_torque
 from gearbench.simulate import simulate
@@ -125,19 +126,34 @@ _tt = np.linspace(0.0, 2.0, 101)
 _vv = math.radians(20.0) * np.sin(2.0 * math.pi * _tt)
 SINE = Segments(t=_tt[:-1], v=_vv[:-1], s=np.diff(_vv) / np.diff(_tt))
 
+# (name, controller, set point, run length s, output interval s)
 CLOSED_LOOP_CASES = [
-    ("p50-reversal", Controller("p", kp=50), reversal_profile()),
-    ("bangbang-reversal", Controller("bang_bang", band_deg=0.25), reversal_profile()),
-    ("p500-reversal", Controller("p", kp=500), reversal_profile()),  # grazes inside a step
-    ("p50-sine", Controller("p", kp=50), SINE),
+    ("p50-reversal", Controller("p", kp=50), reversal_profile(), 2.0, 1e-5),
+    ("bangbang-reversal", Controller("bang_bang", band_deg=0.25), reversal_profile(), 2.0, 1e-5),
+    ("p500-reversal", Controller("p", kp=500), reversal_profile(), 2.0, 1e-5),  # grazes in a step
+    ("p50-sine", Controller("p", kp=50), SINE, 2.0, 1e-5),
+    # 10 s, with a 2 s hold at zero force on a flank before the reversal
+    ("p20-ramp-hold-ramp", Controller("p", kp=20), ramp_hold_ramp_profile(), 10.0, 5e-5),
+    ("p100-ramp-hold-ramp", Controller("p", kp=100), ramp_hold_ramp_profile(), 10.0, 5e-5),
 ]
+CASE_IDS = [c[0] for c in CLOSED_LOOP_CASES]
 
 
-def _contact_audit(law_name: str, ctrl, prof, t_end=2.0):
+_AUDITS: dict = {}
+
+
+def _contact_audit(law_name: str, ctrl, prof, t_end=2.0, dt=1e-5):
+    key = (law_name, ctrl, prof.t.tobytes(), prof.v.tobytes(), prof.s.tobytes(), t_end, dt)
+    if key not in _AUDITS:
+        _AUDITS[key] = _run_contact_audit(law_name, ctrl, prof, t_end, dt)
+    return _AUDITS[key]
+
+
+def _run_contact_audit(law_name: str, ctrl, prof, t_end, dt):
     plant = small_plant(law_name)
     g = plant.gear
     rtol = SolverOptions().rtol
-    run = simulate(plant, ctrl, prof, t_end, SolverOptions(output_dt_s=1e-5))
+    run = simulate(plant, ctrl, prof, t_end, SolverOptions(output_dt_s=dt))
     assert run.ok, run.status
     o = run.outputs
     torque, delta = o[:, L.O_TORQUE], o[:, L.O_DELTA]
@@ -155,29 +171,35 @@ def _contact_audit(law_name: str, ctrl, prof, t_end=2.0):
                 mismatch=np.abs(torque - memoryless), t_peak=np.abs(torque).max())
 
 
-@pytest.mark.parametrize("name,ctrl,prof", CLOSED_LOOP_CASES, ids=[c[0] for c in CLOSED_LOOP_CASES])
-def test_closed_loop_contact_never_pulls_and_dead_zone_is_silent(name, ctrl, prof):
-    a = _contact_audit("dubowsky", ctrl, prof)
+@pytest.mark.parametrize("name,ctrl,prof,t_end,dt", CLOSED_LOOP_CASES, ids=CASE_IDS)
+def test_closed_loop_contact_never_pulls_and_dead_zone_is_silent(name, ctrl, prof, t_end, dt):
+    """At every output sample: no torque while the teeth are apart, and
+    torque * penetration >= 0 (the teeth push, never pull).
+
+    Tolerance: the torque the error control resolves, k * atol(delta) =
+    rtol * stall torque at the output (9.6e-6 N m here, 1e-7 of the peak).  Only
+    while the train settles on a flank at zero force does the state sit that
+    close to the contact's switching surface; the worst values measured there
+    are ~1.5e-7 N m, and exactly 0 everywhere else.
+    """
+    a = _contact_audit("dubowsky", ctrl, prof, t_end, dt)
     assert a["run"].impacts >= 2 and a["t_peak"] > 1.0, "the run must actually use the mesh"
-    # Dead zone: exactly no torque while the teeth are apart.
     gap_torque = np.abs(a["torque"][a["in_gap"]]).max(initial=0.0)
-    assert gap_torque == 0.0, f"{name}: torque {gap_torque:.3g} N m across the open clearance"
-    # Never pulls: torque * penetration >= 0 at every sample.  The only pulls
-    # allowed are round-off while the train settles on a flank at zero force
-    # (measured ~1e-9 N m): 1e-9 of the run's peak torque.
+    assert gap_torque <= a["t_res"], (
+        f"{name}: torque {gap_torque:.3g} N m across the open clearance")
     worst = a["pull"].max()
-    assert worst <= 1e-9 * a["t_peak"], (
+    assert worst <= a["t_res"], (
         f"{name}: teeth pull with {worst:.3g} N m (peak contact torque {a['t_peak']:.3g} N m)")
 
 
-@pytest.mark.parametrize("name,ctrl,prof", CLOSED_LOOP_CASES, ids=[c[0] for c in CLOSED_LOOP_CASES])
-def test_closed_loop_torque_is_the_spec_law_of_the_state(name, ctrl, prof):
+@pytest.mark.parametrize("name,ctrl,prof,t_end,dt", CLOSED_LOOP_CASES, ids=CASE_IDS)
+def test_closed_loop_torque_is_the_spec_law_of_the_state(name, ctrl, prof, t_end, dt):
     """The solver's mode-based torque equals SPEC's memoryless law T(delta, delta')
     at every sample: no impact is missed (teeth passing through each other with
-    no torque), no contact outlives its separation.  Tolerance: the torque the
-    error control resolves, k * atol(delta) (~1e-5 N m); near a zero-force rest
-    on a flank the state sits within that of the switching surface."""
-    a = _contact_audit("dubowsky", ctrl, prof)
+    no torque, e.g. a graze that opens and closes inside one step), and no
+    contact outlives its separation (teeth stuck together, pulling).  Same
+    tolerance as above, k * atol(delta)."""
+    a = _contact_audit("dubowsky", ctrl, prof, t_end, dt)
     worst = a["mismatch"].max()
     i = int(a["mismatch"].argmax())
     assert worst <= a["t_res"], (
@@ -187,13 +209,14 @@ def test_closed_loop_torque_is_the_spec_law_of_the_state(name, ctrl, prof):
 
 @pytest.mark.xfail(strict=True, reason=(
     "known solver defect: with the ElastoBacklash law at the default rtol 1e-6 the "
-    "integrator sustains a spurious ~3 kHz limit cycle while the train settles on a "
-    "flank at zero force (11 spurious impacts, pulls of ~6e-3 N m); it vanishes at "
-    "rtol 1e-8. The min(tc, td) kink of the law is not an event."))
+    "integrator sustains a spurious ~3 kHz oscillation while the train settles on a "
+    "flank at zero force, with pulls of ~6e-3 N m and ~2.5e-4 N m across the open "
+    "gap; it vanishes at rtol 1e-8.  The law's min(tc, td) kink is not an event, and "
+    "a separation that opens and closes inside one step is not detected."))
 def test_closed_loop_elasto_backlash_settles_without_pulling():
     a = _contact_audit("elasto_backlash", Controller("bang_bang", band_deg=0.25), reversal_profile())
-    assert a["pull"].max() <= 1e-9 * a["t_peak"]
-    assert np.abs(a["torque"][a["in_gap"]]).max(initial=0.0) == 0.0
+    assert a["pull"].max() <= a["t_res"]
+    assert np.abs(a["torque"][a["in_gap"]]).max(initial=0.0) <= a["t_res"]
 
 
 # ---------------------------------------------------------------------------

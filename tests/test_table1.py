@@ -21,7 +21,7 @@ def table() -> pd.DataFrame:
 
 
 def iae(table, profile, shift):
-    rows = table[(table.profile == profile) & (table.shift == shift)]
+    rows = table[(table["profile"] == profile) & (table["shift"] == shift)]
     assert len(rows) == 5
     return rows.set_index(rows.controller + rows.kp.fillna(0).astype(str))["iae_deg_s"]
 

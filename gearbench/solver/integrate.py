@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import command
-from ..layout import (CTRL_OPEN, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, M_CONTACT,
+from ..layout import (CTRL_OPEN, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
                       METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -22,7 +22,7 @@ from ..layout import (CTRL_OPEN, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, M_CONTACT,
                       S_SWITCHES, S_T_FAIL, S_T_SAT, STATUS_MAX_STEPS,
                       STATUS_NONFINITE, STATUS_STEP_TOO_SMALL, X_I, X_IAE,
                       X_ISE, X_DELTA, X_THM, X_WL, X_WM)
-from ..plant.rhs import applied_input, load_angle, mesh_torque, rhs
+from ..plant.rhs import applied_input, load_angle, mesh_rate, mesh_torque, rhs
 from .events import apply_event, classify, classify_bangbang, guards
 from .steppers import dopri5, hermite, rosenbrock23
 
@@ -125,6 +125,17 @@ def _delta_extrema(hh, x, f, xn, fn, out):
 
 
 @nb.njit(cache=True)
+def _resolved_impact(x, p, modes, atol):
+    """1 if the contact that just began closed at an approach speed the error
+    control resolves (above the load speed's absolute tolerance), else 0.
+
+    While the train settles on a flank at zero force the teeth re-touch at
+    approach speeds of ~1e-12 rad/s, rounding noise; those are not impacts.
+    """
+    return 1 if modes[M_CONTACT] * mesh_rate(x, p) > atol[X_WL] else 0
+
+
+@nb.njit(cache=True)
 def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
     """Integrate from rest state ``x0`` at t = 0 to ``t_end``.
 
@@ -146,6 +157,7 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
     gt = np.empty(N_GUARDS)
     g2 = np.empty(N_GUARDS)
     thq = np.empty(2)
+    skip = -1  # a guard refused where it stands, ignored until time moves on
     scale = atol / rtol
     vmax = p[P_VMAX]
     closed = p[P_CTRL] != CTRL_OPEN
@@ -187,7 +199,7 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
         rhs(x, p, modes, v0, f)
         nfe += 1
         while t < tb:
-            if nsteps + nrej > max_steps:
+            if nsteps + nrej + nev > max_steps:  # events too: no loop may spin without end
                 status = STATUS_MAX_STEPS
                 break
             hh = min(h, hmax)
@@ -214,7 +226,7 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
             which = -1
             theta = 1.0
             for j in range(N_GUARDS):
-                if g0[j] < 0.0 and g1[j] >= 0.0:
+                if j != skip and g0[j] < 0.0 and g1[j] >= 0.0:
                     th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, 1.0)
                     if which < 0 or th < theta:
                         theta = th
@@ -291,11 +303,23 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
                     break
                 if closed:
                     max_err = max(max_err, abs(ref_t + s * hh - load_angle(x, p)))
+            if hh > 0.0:
+                skip = -1
             if which >= 0:
                 nev += 1
-                impacts += apply_event(which, x, p, modes, v0 + s * (t - ta))
+                m_contact, m_bb, m_shift = modes[M_CONTACT], modes[M_BB], modes[M_SHIFT]
+                if apply_event(which, x, p, modes, v0 + s * (t - ta)):
+                    impacts += _resolved_impact(x, p, modes, atol)
                 rhs(x, p, modes, v0 + s * (t - ta), f)
                 nfe += 1
+                if (hh == 0.0 and modes[M_CONTACT] == m_contact and modes[M_BB] == m_bb
+                        and modes[M_SHIFT] == m_shift):
+                    # Refused where it stands (a separation whose torque rate
+                    # points back into contact) with no time gained: the same
+                    # root would be found again forever.  Take the next step
+                    # without this guard; the re-arm check below judges the
+                    # contact again once time has moved.
+                    skip = which
             # Re-arm the contact guards.  A guard fires only on a crossing from
             # < 0, so a guard of the current contact mode that is already > 0
             # here never fires: after a refused separation (the leave guard is
@@ -319,11 +343,23 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
                 elif g2[G_ENTER_NEG] > 0.0:
                     stale = G_ENTER_NEG
             if stale >= 0:
-                impacts += apply_event(stale, x, p, modes, ref_now)
+                if apply_event(stale, x, p, modes, ref_now):
+                    impacts += _resolved_impact(x, p, modes, atol)
                 if modes[M_CONTACT] != cm:
                     nev += 1
                     rhs(x, p, modes, ref_now, f)
                     nfe += 1
+            # The controller's modes go stale the same way (a bang-bang switch
+            # or a shift flip whose crossing a step hid): a bang-bang stuck on
+            # drives the motor away at full voltage.  Their right mode follows
+            # from the state alone, so re-derive it.
+            if hh > 0.0 and (g2[G_BB_A] > 0.0 or g2[G_BB_B] > 0.0 or g2[G_SHIFT] > 0.0):
+                if g2[G_SHIFT] > 0.0:
+                    modes[M_SHIFT] = -modes[M_SHIFT]
+                classify_bangbang(x, p, modes, ref_now)
+                nev += 1
+                rhs(x, p, modes, ref_now, f)
+                nfe += 1
             sg = _sign(applied_input(x, p, modes, v0 + s * (t - ta)))
             if sg != last_sign:
                 switches += 1
