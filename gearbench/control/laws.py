@@ -21,13 +21,13 @@ from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, M_BB,
                       X_THM, X_ZD, X_ZI)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def control_error(x, p, modes, ref):
     """Motor-side error ``e = r + shift - theta_m/N``, rad."""
     return ref + modes[M_SHIFT] * p[P_SHIFT] - x[X_THM] / p[P_N]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def command(x, p, modes, ref, kind):
     """Unsaturated controller output, V (for open loop: the input itself)."""
     if kind == CTRL_OPEN:
@@ -43,7 +43,7 @@ def command(x, p, modes, ref, kind):
     return p[P_KP] * u
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def saturate(u, vmax):
     """Clip to the amplifier's range ``[-vmax, vmax]``."""
     if u > vmax:

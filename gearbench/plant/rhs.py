@@ -26,25 +26,25 @@ from ..layout import (CTRL_OPEN, CTRL_PID, M_CONTACT, P_BL, P_BM, P_CTRL, P_DMES
 from .contact import engaged_torque
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def pinion_speed(x, p):
     """Pinion speed, rad/s: the rotor's unless a shaft separates them."""
     return x[X_WP] if p[P_HAS_SHAFT] > 0.0 else x[X_WM]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def load_angle(x, p):
     """Output angle ``theta_l = (theta_m - phi)/N - delta``, rad."""
     return (x[X_THM] - x[X_PHI]) / p[P_N] - x[X_DELTA]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def mesh_rate(x, p):
     """``d delta/dt = w_p/N - w_l``, rad/s."""
     return pinion_speed(x, p) / p[P_N] - x[X_WL]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def mesh_torque(x, p, modes):
     """Contact torque on the load in the current contact mode, N m."""
     m = modes[M_CONTACT]
@@ -54,7 +54,7 @@ def mesh_torque(x, p, modes):
                           p[P_DMESH], p[P_LAW], m)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def applied_input(x, p, modes, ref):
     """Input after saturation: motor voltage (V) or drive torque (N m)."""
     u = command(x, p, modes, ref, p[P_CTRL])

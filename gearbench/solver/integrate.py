@@ -151,7 +151,8 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
     xn = np.empty(n)
     fn = np.empty(n)
     xi = np.empty(n)
-    ws = np.empty((8 + N_DYN, n))
+    ws = np.empty((8 + 2 * N_DYN, n))
+    piv = np.empty(N_DYN, dtype=np.int64)
     g0 = np.empty(N_GUARDS)
     g1 = np.empty(N_GUARDS)
     gt = np.empty(N_GUARDS)
@@ -208,9 +209,9 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
                 hh = tb - t
             ref_t = v0 + s * (t - ta)
             if rosen:
-                err, ne = rosenbrock23(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+                err, ne = rosenbrock23(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
             else:
-                err, ne = dopri5(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+                err, ne = dopri5(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
             nfe += ne
             if not (err <= 1.0):
                 nrej += 1
@@ -257,9 +258,9 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
                     hs = 0.0
                 elif theta < 1.0:
                     if rosen:
-                        err, ne = rosenbrock23(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+                        err, ne = rosenbrock23(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
                     else:
-                        err, ne = dopri5(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, xn, fn)
+                        err, ne = dopri5(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
                     nfe += ne
                     # The root was found on the long step's interpolant, whose
                     # error is not controlled; the re-taken step can end short

@@ -17,7 +17,6 @@ interpolant can locate events and sample the output.
 import math
 
 import numba as nb
-import numpy as np
 
 from ..layout import N_DYN, N_STATE
 from ..plant.rhs import rhs
@@ -103,13 +102,13 @@ def hermite(theta, h, y0, f0, y1, f1, out):
 
 
 @nb.njit(cache=True)
-def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, ynew, fnew):
+def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, piv, ynew, fnew):
     """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
 
     ``ref(t) = ref0 + slope (t - t_seg)`` enters through ``ref0`` (the value at
     ``t``) and ``slope``.  Writes the new state and its derivative into
     ``ynew``/``fnew`` and returns ``(error norm, rhs evaluations)``.
-    ``ws`` is a (8 + N_DYN, N_STATE) scratch array.
+    ``ws`` is a (8 + 2 N_DYN, N_STATE) scratch array, ``piv`` an int scratch of N_DYN.
     """
     n = N_STATE
     nd = N_DYN
@@ -145,12 +144,11 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, ynew
     else:
         for i in range(n):
             tdot[i] = 0.0
-    w = np.empty((nd, nd))
+    w = ws[8 + nd:8 + 2 * nd, :nd]
     for i in range(nd):
         for j in range(nd):
             w[i, j] = -hd * jac[j, i]
         w[i, i] += 1.0
-    piv = np.empty(nd, dtype=np.int64)
     lu_factor(w, piv)
     # k1 = W^-1 (f0 + h d T)
     for i in range(n):
@@ -205,7 +203,7 @@ C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
 @nb.njit(cache=True)
-def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, ynew, fnew):
+def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, piv, ynew, fnew):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
     n = N_STATE
     k2 = ws[0]
