@@ -19,6 +19,9 @@ install-test: $(BIN)/python
 
 run: install
 	$(BIN)/gearbench run experiments/table1.yaml
+	$(BIN)/gearbench validate
+	$(BIN)/gearbench run experiments/table1_translational.yaml
+	$(BIN)/gearbench run experiments/compensators.yaml
 	$(BIN)/gearbench sweep experiments/gain_scan.yaml --param controller.kp=0.5,5,50,500,5000 \
 		--summary results/gain_scan.md
 	$(BIN)/gearbench sweep experiments/gain_scan.yaml --param "controller.kp=geomspace(50,5000,11)" \

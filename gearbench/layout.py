@@ -33,10 +33,17 @@ P_TF = 22          # derivative filter time constant, s
 P_BAND = 23        # bang-bang half band, rad (no output while |e| <= band/2)
 P_SHIFT = 24       # set-point shift, rad (0 = off)
 P_TORQUE_IN = 25   # 1.0: the input drives the motor shaft as a torque (no electrics)
+P_COMP = 26        # backlash compensator keying the set-point shift: COMP_* (P_SHIFT > 0 only)
+P_SPEED_EPS = 27   # speed resolution of the thesis shift's sign test, rad/s (set from the solver's atol)
 P_SIZE = 32
 
 LAW_DUBOWSKY = 0.0
 LAW_ELASTO = 1.0
+LAW_LINEAR = 2.0   # unclipped spring-damper: contact lasts until the penetration is 0 (may pull)
+
+COMP_THESIS = 0.0     # thesis Equation 1: shift sign = sign of the motor speed (flips on overshoot)
+COMP_DIRECTION = 1.0  # shift sign = direction the set point last moved (ramp slope or step),
+                      # held through dwells; changes only at the profile's corners
 
 CTRL_OPEN = 0.0      # the segment table is the motor voltage (or drive torque), zero-order hold
 CTRL_BANGBANG = 1.0
@@ -62,7 +69,8 @@ N_STATE = 11
 # ---- discrete modes -------------------------------------------------------
 M_CONTACT = 0  # -1, 0 (free flight), +1
 M_BB = 1       # bang-bang output sign -1, 0, +1
-M_SHIFT = 2    # sign used by the set-point shift: +1 when motor speed >= 0, else -1
+M_SHIFT = 2    # sign used by the set-point shift: thesis: +1 when motor speed >= 0, else -1;
+               # COMP_DIRECTION: the set point's last direction (0 before it first moves)
 N_MODES = 3
 
 # ---- guards (an event fires when a guard goes from < 0 to >= 0) ----------

@@ -33,6 +33,8 @@ class RunRecord:
     def label(self) -> str:
         c = self.controller
         gain = f"_kp{c.kp:g}" if c.kind != "bang_bang" else ""
+        if c.compensator != "none":
+            return f"{self.profile}_{c.kind}{gain}_comp-{c.compensator}"
         return f"{self.profile}_{c.kind}{gain}_shift-{'on' if c.shift else 'off'}"
 
     def row(self) -> dict:
@@ -40,16 +42,22 @@ class RunRecord:
         c = self.controller
         return {"profile": self.profile_id, "controller": c.kind,
                 "kp": c.kp if c.kind != "bang_bang" else None,
-                "shift": "on" if c.shift else "off",
+                "shift": "on" if c.effective_compensator != "none" else "off",
+                **({"compensator": c.effective_compensator} if c.compensator != "none" else {}),
                 **self.result.scores(), "status": self.result.status,
                 "wall_s": self.wall_s}
 
 
 def load_profiles(exp: Experiment) -> dict[str, Profile]:
-    """Every profile the experiment names, loaded before any solving."""
+    """Every profile the experiment names, loaded before any solving (and
+    scaled by the experiment's ``profile_scale``)."""
     search = exp.base_dir.parent / "profiles"
-    return {name: load_profile(name, search if search.is_dir() else exp.base_dir)
-            for name in exp.profiles}
+    profiles = {name: load_profile(name, search if search.is_dir() else exp.base_dir)
+                for name in exp.profiles}
+    scale = getattr(exp, "profile_scale", 1.0)
+    if scale != 1.0:
+        profiles = {name: prof.scaled(scale) for name, prof in profiles.items()}
+    return profiles
 
 
 def _solve(job: tuple) -> tuple[RunResult, float]:

@@ -36,11 +36,12 @@ class Segments(NamedTuple):
 class SolverOptions:
     """method: ``rosenbrock23`` (alias ``ode23s``, default, stiff) or ``dopri5``
     (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
-    follow from each state's typical scale); max_step_s: largest step, s;
+    follow from each state's typical scale); max_step_s: largest step, s (events
+    inside a step are caught at the interpolant's extrema; the cap is a backstop);
     output_dt_s: sampling interval of the returned trace, s."""
     method: str = "rosenbrock23"
     rtol: float = 1e-6
-    max_step_s: float = 1e-3
+    max_step_s: float = 1e-2
     max_steps: int = 20_000_000
     output_dt_s: float = 1e-3
 
@@ -146,6 +147,9 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     the states' typical scales (``atol = rtol * scales``) and an initial state."""
     if options.method not in METHODS:
         raise ValueError(f"unknown solver method {options.method!r}; choose one of {sorted(METHODS)}")
+    scales = np.asarray(scales, dtype=float)
+    p = np.array(p, dtype=float)
+    p[L.P_SPEED_EPS] = options.rtol * scales[L.X_WM]
     n_out = int(round(t_end / options.output_dt_s)) + 1
     t_out = np.linspace(0.0, t_end, n_out)
     outputs, stats, x_end = integrate(

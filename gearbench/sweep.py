@@ -48,6 +48,7 @@ import os
 import re
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -333,7 +334,8 @@ def plan_sweep(experiment: str | Path, params: Sequence[Param]) -> SweepPlan:
     ------
     ConfigError
         Every problem of every grid point, each line prefixed with the point's
-        values (``controller.kp=-1: controllers[0].kp must be a positive number in V/deg``).
+        values (``with controller.kp=-1: controllers[0].kp must be a positive number
+        in V/deg, got -1``), and of the experiment file itself.
     SweepError
         A key that cannot be applied (no such list item ...).
     """
@@ -577,7 +579,10 @@ def _local(points: list[Point], workers: int) -> Iterable[tuple[Point, dict]]:
     # Load the compiled core here once (a very short run) so that the forked workers
     # inherit it instead of each loading it from the disk cache again.
     plant, ctrl, segments, _, solver, delta0 = points[0].job
-    simulate(plant, ctrl, segments, 1e-3, replace(solver, output_dt_s=1e-3), delta0=delta0)
+    try:
+        simulate(plant, ctrl, segments, 1e-3, replace(solver, output_dt_s=1e-3), delta0=delta0)
+    except Exception:  # noqa: BLE001 - only a warm-up; the point itself reports its failure
+        pass
     # fork: the workers inherit the loaded, compiled core instead of re-importing it
     ctx = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
@@ -667,6 +672,9 @@ def run_sweep(plan: SweepPlan, results_dir: str | Path = "results", *, workers: 
                     on_done(point, row)
     except KeyboardInterrupt:
         outcome.interrupted = True
+    except BrokenProcessPool as exc:
+        raise SweepError(f"a worker process died ({exc}); the {outcome.solved} points finished "
+                         f"so far are stored in {csv_path}: run the same sweep again to resume") from None
     finally:
         store.close()
     return outcome

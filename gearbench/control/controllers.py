@@ -14,6 +14,21 @@ import numpy as np
 
 from .. import layout as L
 
+COMPENSATORS = ("none", "thesis_shift", "setpoint_direction")
+"""Backlash compensators (each adds the set-point shift, thesis Equation 1, of
+``shift_deg``; they differ in what decides its sign):
+
+* ``none``: no shift;
+* ``thesis_shift``: the sign of the motor speed (the thesis's; every overshoot
+  reverses the speed, flips the shift by twice its size and drives chatter);
+* ``setpoint_direction``: the direction the set point last moved (the sign of
+  the ramp's slope, or of the step that opens a dwell), held through dwells.
+  The profile is known ahead, so the sign changes only at the profile's
+  corners, never on an overshoot: the shift becomes a pure feedforward of the
+  clearance, like a backlash inverse (Tao & Kokotovic) keyed to the commanded
+  direction instead of the measured one.
+"""
+
 KINDS = {"open": L.CTRL_OPEN, "bang_bang": L.CTRL_BANGBANG, "p": L.CTRL_P,
          "pi": L.CTRL_PI, "pid": L.CTRL_PID}
 
@@ -25,7 +40,9 @@ class Controller:
     kind: ``bang_bang``, ``p``, ``pi``, ``pid`` (or ``open``: no feedback);
     kp (V/deg), ki (1/s), kd (s), derivative_filter_s (s), band_deg (deg);
     shift: apply thesis Equation 1; shift_deg: its size (deg), default half
-    the clearance.
+    the clearance; compensator: ``none``, ``thesis_shift`` or
+    ``setpoint_direction`` (see ``COMPENSATORS``); ``shift=True`` with
+    ``compensator="none"`` is the thesis shift (the historical spelling).
     """
     kind: str
     kp: float = 0.0
@@ -35,6 +52,19 @@ class Controller:
     band_deg: float = 0.25
     shift: bool = False
     shift_deg: float | None = None
+    compensator: str = "none"
+
+    def __post_init__(self):
+        if self.compensator not in COMPENSATORS:
+            raise ValueError(f"compensator must be one of {', '.join(COMPENSATORS)}, "
+                             f"got {self.compensator!r}")
+
+    @property
+    def effective_compensator(self) -> str:
+        """``compensator``, or ``thesis_shift`` when only ``shift`` is set."""
+        if self.compensator == "none" and self.shift:
+            return "thesis_shift"
+        return self.compensator
 
     @property
     def label(self) -> str:
@@ -51,9 +81,11 @@ def pack_controller(ctrl: Controller, backlash_deg: float, p: np.ndarray) -> np.
     p[L.P_KD] = ctrl.kd
     p[L.P_TF] = ctrl.derivative_filter_s
     p[L.P_BAND] = math.radians(ctrl.band_deg) / 2.0
-    if ctrl.shift:
+    comp = ctrl.effective_compensator
+    if comp != "none":
         shift = ctrl.shift_deg if ctrl.shift_deg is not None else backlash_deg / 2.0
         p[L.P_SHIFT] = math.radians(shift)
     else:
         p[L.P_SHIFT] = 0.0
+    p[L.P_COMP] = L.COMP_DIRECTION if comp == "setpoint_direction" else L.COMP_THESIS
     return p

@@ -25,7 +25,7 @@ from typing import Any, Iterable, Mapping
 
 import yaml
 
-from ..control.controllers import Controller
+from ..control.controllers import COMPENSATORS, Controller
 from ..plant.components import Gear, Leadscrew, Load, Motor, Plant, Shaft
 from ..simulate import METHODS, SolverOptions
 from .schema import Choice, Number, Text, check_mapping, index, join, show
@@ -319,10 +319,12 @@ EXPERIMENT_TOP = {
     "shift_deg": Number("deg", **NONNEG, required=False),
     "initial_delta_deg": Number("deg", low=None, required=False, default=0.0),
     "reference": Text(),
+    "profile_scale": Number("", **POS, required=False, default=1.0),
 }
 EXPERIMENT_SECTIONS = {"plant": "file path or mapping", "solver": "mapping",
                        "profiles": "list of names or paths", "controllers": "list of mappings",
-                       "shift": "boolean or list of booleans"}
+                       "shift": "boolean or list of booleans",
+                       "compensator": "compensator name or list of names"}
 
 _KP = Number("V/deg", **POS)
 CONTROLLERS = {
@@ -363,6 +365,13 @@ class Experiment:
         Where the mesh sits in its clearance at t = 0 (output deg, 0 = centred).
     base_dir : Path
         Folder of the experiment file; relative paths are taken from it.
+    compensators : tuple of str
+        Backlash compensators to compare (``none``, ``thesis_shift``,
+        ``setpoint_direction``), one run each, instead of ``shifts``; empty
+        when the file has no ``compensator`` key.
+    profile_scale : float
+        Every profile's values and slopes are multiplied by this (e.g. to fit
+        the thesis's profiles to a leadscrew's travel); 1 by default.
     """
     name: str
     description: str
@@ -377,6 +386,8 @@ class Experiment:
     reference: Path | None
     initial_delta_deg: float
     base_dir: Path
+    compensators: tuple[str, ...] = ()
+    profile_scale: float = 1.0
 
     @property
     def initial_delta(self) -> float:
@@ -385,8 +396,11 @@ class Experiment:
 
     def runs(self) -> list[tuple[str, Controller]]:
         """Every run as ``(profile, controller)``: profiles outermost, then
-        controllers, then shifts; each controller carries its ``shift`` and the
-        experiment's ``shift_deg``."""
+        controllers, then shifts (or compensators); each controller carries its
+        ``shift`` (``compensator``) and the experiment's ``shift_deg``."""
+        if self.compensators:
+            return [(prof, replace(ctrl, shift=False, compensator=c, shift_deg=self.shift_deg))
+                    for prof in self.profiles for ctrl in self.controllers for c in self.compensators]
         return [(prof, replace(ctrl, shift=s, shift_deg=self.shift_deg))
                 for prof in self.profiles for ctrl in self.controllers for s in self.shifts]
 
@@ -429,6 +443,24 @@ def _check_shifts(raw: Any, where: str, problems: list[str]) -> tuple[bool, ...]
     bad = [i for i, s in enumerate(items) if not isinstance(s, bool)]
     for i in bad:
         problems.append(f"{index(where, i)} must be a boolean (off/on), got {show(items[i])}")
+    return () if bad else tuple(items)
+
+
+def _check_compensators(raw: Any, where: str, problems: list[str]) -> tuple[str, ...]:
+    items = [raw] if isinstance(raw, str) else raw
+    allowed = ", ".join(COMPENSATORS)
+    if not isinstance(items, list) or not items:
+        problems.append(f"{where} must be a compensator name ({allowed}) or a non-empty list "
+                        f"of them, got {show(raw)}")
+        return ()
+    bad = False
+    for i, c in enumerate(items):
+        if not isinstance(c, str) or c not in COMPENSATORS:
+            problems.append(f"{index(where, i)} must be one of {allowed} (a string), got {show(c)}")
+            bad = True
+    if len(set(x for x in items if isinstance(x, str))) != len(items) and not bad:
+        problems.append(f"{where} lists a compensator twice: {items}")
+        bad = True
     return () if bad else tuple(items)
 
 
@@ -490,6 +522,13 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
             controllers.append(_check_controller(item, index("controllers", i), problems))
 
     shifts = _check_shifts(raw.get("shift", False), "shift", problems)
+    compensators: tuple[str, ...] = ()
+    if "compensator" in raw:
+        compensators = _check_compensators(raw["compensator"], "compensator", problems)
+        if "shift" in raw:
+            problems.append("give either shift (off/on, the thesis shift) or compensator "
+                            f"({', '.join(COMPENSATORS)}), not both; compensator: thesis_shift "
+                            "is shift: on")
 
     if plant is not None:
         clearance = plant.gear.backlash_deg
@@ -517,7 +556,8 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
         duration_s=top["duration_s"], solver=SolverOptions(**solver), profiles=profiles,
         controllers=tuple(controllers), shifts=shifts, shift_deg=top.get("shift_deg"),
         reference=reference, initial_delta_deg=top.get("initial_delta_deg", 0.0),
-        base_dir=base_dir)
+        base_dir=base_dir, compensators=compensators,
+        profile_scale=top.get("profile_scale", 1.0))
     return exp, []
 
 

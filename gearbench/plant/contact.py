@@ -15,6 +15,10 @@ Penetration ``p = delta - h`` (delta > h), ``delta + h`` (delta < -h), else 0.
   ``T = Tc + min(Tc, Td)`` on the positive flank (``max`` on the negative one),
   and 0 once ``Tc + Td`` would pull: the damping torque is limited to the
   spring torque, so T is continuous at onset.
+* ``linear`` (for validation): the unclipped spring-damper ``T = k p + d ddelta``
+  for as long as the teeth overlap (``p != 0``); it may pull.  A single impact
+  then has the textbook restitution ``exp(-zeta pi / sqrt(1 - zeta^2))`` and
+  lasts exactly ``pi / omega_d``.
 
 The solver keeps a contact mode (-1, 0, +1).  ``engaged_torque`` is the torque
 while engaged on flank ``mode``; ``unclipped`` is ``Tc + Td``, whose sign
@@ -23,7 +27,7 @@ torque, not on the penetration).
 """
 import numba as nb
 
-from ..layout import LAW_ELASTO
+from ..layout import LAW_ELASTO, LAW_LINEAR
 
 
 @nb.njit(cache=True, inline="always")
@@ -62,6 +66,12 @@ def clipped_torque(delta, ddelta, h, k, d, law):
     which is identical except exactly at the switching instants.
     """
     p = penetration(delta, h)
+    if law == LAW_LINEAR:
+        if p > 0.0:
+            return unclipped(delta, ddelta, h, k, d, 1)
+        if p < 0.0:
+            return unclipped(delta, ddelta, h, k, d, -1)
+        return 0.0
     if p > 0.0:
         t = unclipped(delta, ddelta, h, k, d, 1)
         return engaged_torque(delta, ddelta, h, k, d, law, 1) if t > 0.0 else 0.0

@@ -6,7 +6,8 @@ import numpy as np
 from .. import layout as L
 from .components import Plant
 
-CONTACT_LAWS = {"dubowsky": L.LAW_DUBOWSKY, "elasto_backlash": L.LAW_ELASTO}
+CONTACT_LAWS = {"dubowsky": L.LAW_DUBOWSKY, "elasto_backlash": L.LAW_ELASTO,
+                "linear": L.LAW_LINEAR}  # linear: unclipped, for validation only (not in plant files)
 
 
 def pack_plant(plant: Plant, p: np.ndarray | None = None) -> np.ndarray:

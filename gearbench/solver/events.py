@@ -5,7 +5,13 @@ The right-hand side is smooth inside a mode; it changes character when
 * the teeth touch (contact onset: with Dubowsky's law the damper torque
   appears at once) or separate (the contact torque reaches zero),
 * the bang-bang controller switches (``|e|`` crosses ``band/2``),
-* the set-point shift flips (the motor speed crosses zero).
+* the set-point shift flips (the motor speed crosses zero; thesis compensator
+  only: the set-point-direction compensator switches at the profile's corners,
+  which the integration loop handles between segments).
+
+With the unclipped ``linear`` contact law the teeth separate when the
+penetration returns to zero (guard ``-cm k p``, torque units), not on the
+torque's sign.
 
 Each is a guard that fires when it goes from < 0 to >= 0; the solver locates
 the root on the step's interpolant, steps exactly to it, then calls
@@ -17,10 +23,10 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import control_error
-from ..layout import (CTRL_BANGBANG, CTRL_OPEN, G_BB_A, G_BB_B, G_ENTER_NEG,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, G_BB_A, G_BB_B, G_ENTER_NEG,
                       G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
-                      N_GUARDS, N_STATE, P_BAND, P_CTRL, P_DMESH, P_H,
-                      P_HAS_SHAFT, P_KMESH, P_N, P_SHIFT, X_DELTA, X_WL, X_WM,
+                      LAW_LINEAR, N_GUARDS, N_STATE, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
+                      P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, X_DELTA, X_WL, X_WM,
                       X_WP)
 from ..plant.contact import entry_guard, unclipped
 from ..plant.rhs import mesh_rate, rhs
@@ -40,6 +46,8 @@ def guards(x, p, modes, ref, g):
     if cm == 0:
         g[G_ENTER_POS] = entry_guard(delta, dd, h, k, d, 1)
         g[G_ENTER_NEG] = entry_guard(delta, dd, h, k, d, -1)
+    elif p[P_LAW] == LAW_LINEAR:
+        g[G_LEAVE] = -cm * k * (delta - cm * h)
     else:
         g[G_LEAVE] = -cm * unclipped(delta, dd, h, k, d, cm)
     kind = p[P_CTRL]
@@ -56,8 +64,14 @@ def guards(x, p, modes, ref, g):
             g[G_BB_A] = band - e
         else:
             g[G_BB_A] = band + e
-    if p[P_SHIFT] > 0.0:
-        g[G_SHIFT] = -x[X_WM] if modes[M_SHIFT] > 0 else x[X_WM]
+    if p[P_SHIFT] > 0.0 and p[P_COMP] == COMP_THESIS:
+        # Equation 1 flips the shift where the motor speed changes sign.  At
+        # rest after an overdamped approach the speed decays to zero and
+        # round-off alone would flip it (and start a chatter that the exact
+        # solution does not have), so a flip needs the speed past the
+        # solver's resolution of it, P_SPEED_EPS, on the other side.
+        eps = p[P_SPEED_EPS]
+        g[G_SHIFT] = -x[X_WM] - eps if modes[M_SHIFT] > 0 else x[X_WM] - eps
 
 
 @nb.njit(cache=True)
@@ -83,11 +97,15 @@ def classify(x, p, modes, ref):
     dd = mesh_rate(x, p)
     h, k, d = p[P_H], p[P_KMESH], p[P_DMESH]
     modes[M_CONTACT] = 0
-    if delta > h and unclipped(delta, dd, h, k, d, 1) > 0.0:
+    linear = p[P_LAW] == LAW_LINEAR
+    if delta > h and (linear or unclipped(delta, dd, h, k, d, 1) > 0.0):
         modes[M_CONTACT] = 1
-    elif delta < -h and unclipped(delta, dd, h, k, d, -1) < 0.0:
+    elif delta < -h and (linear or unclipped(delta, dd, h, k, d, -1) < 0.0):
         modes[M_CONTACT] = -1
-    modes[M_SHIFT] = 1 if x[X_WM] >= 0.0 else -1
+    if p[P_COMP] == COMP_THESIS:
+        modes[M_SHIFT] = 1 if x[X_WM] >= 0.0 else -1
+    else:
+        modes[M_SHIFT] = 0  # no direction until the set point first moves
     classify_bangbang(x, p, modes, ref)
 
 
@@ -113,7 +131,10 @@ def apply_event(which, x, p, modes, ref):
         n = p[P_N]
         wp_dot = f[X_WP] if p[P_HAS_SHAFT] > 0.0 else f[X_WM]
         dd = mesh_rate(x, p)
-        rate = p[P_KMESH] * dd + p[P_DMESH] * (wp_dot / n - f[X_WL])
+        if p[P_LAW] == LAW_LINEAR:
+            rate = p[P_KMESH] * dd  # the guard is the spring torque alone
+        else:
+            rate = p[P_KMESH] * dd + p[P_DMESH] * (wp_dot / n - f[X_WL])
         if cm * rate > 0.0:
             modes[M_CONTACT] = cm
         return 0
@@ -132,3 +153,27 @@ def apply_event(which, x, p, modes, ref):
         classify_bangbang(x, p, modes, ref)
         return 0
     return 0
+
+
+@nb.njit(cache=True)
+def direction_of_segment(k, seg_t, seg_v, seg_s, held):
+    """Set-point direction for the set-point-direction compensator on segment ``k``.
+
+    The sign of the segment's slope; on a dwell (zero slope) the sign of the
+    step that opens it, if any; else ``held`` (the direction so far).  So the
+    direction changes only where the set point itself turns, and it is held
+    through dwells (the hysteresis: an overshoot never flips it).
+    """
+    s = seg_s[k]
+    if s > 0.0:
+        return 1
+    if s < 0.0:
+        return -1
+    if k > 0:
+        prev_end = seg_v[k - 1] + seg_s[k - 1] * (seg_t[k] - seg_t[k - 1])
+        jump = seg_v[k] - prev_end
+        if jump > 0.0:
+            return 1
+        if jump < 0.0:
+            return -1
+    return held

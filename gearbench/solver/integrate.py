@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import command
-from ..layout import (CTRL_OPEN, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
                       METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -23,7 +23,7 @@ from ..layout import (CTRL_OPEN, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEA
                       STATUS_NONFINITE, STATUS_STEP_TOO_SMALL, X_I, X_IAE,
                       X_ISE, X_DELTA, X_THM, X_WL, X_WM)
 from ..plant.rhs import applied_input, load_angle, mesh_rate, mesh_torque, rhs
-from .events import apply_event, classify, classify_bangbang, guards
+from .events import apply_event, classify, classify_bangbang, direction_of_segment, guards
 from .steppers import dopri5, hermite, rosenbrock23
 
 
@@ -83,22 +83,19 @@ def _locate(j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0):
 
 
 @nb.njit(cache=True)
-def _delta_extrema(hh, x, f, xn, fn, out):
-    """Interior extrema of the mesh angle on the step's cubic Hermite interpolant.
-
-    Writes the roots in (0, 1) of d(delta)/d(theta), a quadratic, into ``out``
-    and returns how many there are (0, 1 or 2).
-    """
-    dy = x[X_DELTA] - xn[X_DELTA]
-    d0 = hh * f[X_DELTA]
-    d1 = hh * fn[X_DELTA]
+def _extrema(hh, x, f, xn, fn, idx, target, out, n):
+    """Append to ``out[n:]`` the theta in (0, 1) where the slope of component
+    ``idx`` on the step's cubic Hermite interpolant equals ``target``
+    (``d y / d theta``, a quadratic); returns the new count (at most n + 2)."""
+    dy = x[idx] - xn[idx]
+    d0 = hh * f[idx]
+    d1 = hh * fn[idx]
     a = 6.0 * dy + 3.0 * (d0 + d1)
     b = -6.0 * dy - 4.0 * d0 - 2.0 * d1
-    c = d0
-    n = 0
+    c = d0 - target
     scale = abs(a) + abs(b) + abs(c)
     if scale == 0.0:
-        return 0
+        return n
     if abs(a) <= 1e-12 * scale:
         if b != 0.0:
             r = -c / b
@@ -108,13 +105,11 @@ def _delta_extrema(hh, x, f, xn, fn, out):
         return n
     disc = b * b - 4.0 * a * c
     if disc < 0.0:
-        return 0
+        return n
     sq = math.sqrt(disc)
     q = -0.5 * (b + sq) if b >= 0.0 else -0.5 * (b - sq)
     r1 = q / a
     r2 = c / q if q != 0.0 else r1
-    if r2 < r1:
-        r1, r2 = r2, r1
     if 0.0 < r1 < 1.0:
         out[n] = r1
         n += 1
@@ -157,11 +152,14 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
     g1 = np.empty(N_GUARDS)
     gt = np.empty(N_GUARDS)
     g2 = np.empty(N_GUARDS)
-    thq = np.empty(2)
+    thq = np.empty(6)
+    shift_on = p[P_SHIFT] > 0.0 and p[P_CTRL] != CTRL_OPEN and p[P_COMP] == COMP_THESIS
+    bangbang = p[P_CTRL] == CTRL_BANGBANG
     skip = -1  # a guard refused where it stands, ignored until time moves on
     scale = atol / rtol
     vmax = p[P_VMAX]
     closed = p[P_CTRL] != CTRL_OPEN
+    keyed = closed and p[P_SHIFT] > 0.0 and p[P_COMP] != COMP_THESIS
     rosen = method == METHOD_ROSENBROCK
     order_exp = 1.0 / 3.0 if rosen else 1.0 / 5.0
 
@@ -194,6 +192,10 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
         v0 = seg_v[k]
         s = seg_s[k]
         t = ta
+        if keyed:
+            # set-point-direction compensator: the shift's sign follows the
+            # profile, known ahead segment by segment; it switches only here
+            modes[M_SHIFT] = direction_of_segment(k, seg_t, seg_v, seg_s, modes[M_SHIFT])
         if closed:
             classify_bangbang(x, p, modes, v0)
             max_err = max(max_err, abs(v0 - load_angle(x, p)))
@@ -232,25 +234,32 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
                     if which < 0 or th < theta:
                         theta = th
                         which = j
+            # A guard can cross and cross back inside one step: a graze (the
+            # motor swings into a flank and back out: the teeth would pass
+            # through each other), a motor speed that dips through zero (a
+            # missed shift flip), an error that pokes out of the bang-bang
+            # band.  Each guard is monotone in one state between that state's
+            # extrema, so also test the guards at the interior extrema of
+            # delta, of the motor speed and of the control error.
+            nq = 0
             if modes[M_CONTACT] == 0:
-                # A graze can open and close inside one step (the motor swings
-                # into a flank and back out): both ends show the teeth apart and
-                # the impact is missed, the gears pass through each other.  The
-                # entry guards grow with side*delta, so also test them where
-                # delta's interpolant has an interior extremum.
-                nq = _delta_extrema(hh, x, f, xn, fn, thq)
-                for q in range(nq):
-                    tq = thq[q]
-                    if which >= 0 and tq >= theta:
-                        continue
-                    hermite(tq, hh, x, f, xn, fn, xi)
-                    guards(xi, p, modes, ref_t + s * tq * hh, g2)
-                    for j in (G_ENTER_POS, G_ENTER_NEG):
-                        if g0[j] < 0.0 and g1[j] < 0.0 and g2[j] >= 0.0:
-                            th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, tq)
-                            if which < 0 or th < theta:
-                                theta = th
-                                which = j
+                nq = _extrema(hh, x, f, xn, fn, X_DELTA, 0.0, thq, nq)
+            if shift_on:
+                nq = _extrema(hh, x, f, xn, fn, X_WM, 0.0, thq, nq)
+            if bangbang:
+                nq = _extrema(hh, x, f, xn, fn, X_THM, s * hh * p[P_N], thq, nq)
+            for q in range(nq):
+                tq = thq[q]
+                if which >= 0 and tq >= theta:
+                    continue
+                hermite(tq, hh, x, f, xn, fn, xi)
+                guards(xi, p, modes, ref_t + s * tq * hh, g2)
+                for j in range(N_GUARDS):
+                    if j != skip and g0[j] < 0.0 and g1[j] < 0.0 and g2[j] >= 0.0:
+                        th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, tq)
+                        if which < 0 or th < theta:
+                            theta = th
+                            which = j
             h_next = hh * min(5.0, max(0.2, 0.9 * max(err, 1e-10) ** (-order_exp)))
             if which >= 0:
                 hs = theta * hh
