@@ -88,34 +88,31 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
     if exp.compensators:
         # compensator comparison: IAE (deg s) and voltage sign changes per compensator
         runs = variants.compensator_frame(records)
-        write_csv_atomic(runs[variants.COMPENSATOR_COLUMNS], results_dir / f"{exp.name}.csv")
-        write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv")
+        columns = variants.COMPENSATOR_COLUMNS
         title = f"{exp.name}: integrated absolute output error (deg s) and voltage sign changes"
-        write_text_atomic(results_dir / f"{exp.name}.md",
-                          variants.compensator_markdown(runs, title, exp.description))
+        markdown = variants.compensator_markdown(runs, title, exp.description)
         import matplotlib.pyplot as plt
         fig = variants.compensator_figure(runs, title)
         save_figure_atomic(fig, results_dir / f"{exp.name}.png")
         plt.close(fig)
-        Console().print(runs[variants.COMPENSATOR_COLUMNS].to_string(index=False))
+        shown = runs[columns].to_string(index=False)
     elif exp.plant.leadscrew is not None:
         # translational variant: the carriage error in mm s (IAE of theta_l x lead / 2 pi)
         runs = variants.translational_frame(tables.records_frame(records), exp.plant)
-        write_csv_atomic(runs[variants.TRANSLATIONAL_COLUMNS], results_dir / f"{exp.name}.csv")
-        write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv")
+        columns = variants.TRANSLATIONAL_COLUMNS
         title = f"{exp.name}: integrated absolute carriage position error (mm s)"
-        write_text_atomic(results_dir / f"{exp.name}.md",
-                          variants.translational_markdown(runs, title, exp.description))
-        Console().print(runs[variants.TRANSLATIONAL_COLUMNS + ["impacts", "switchings", "status"]]
-                        .to_string(index=False))
+        markdown = variants.translational_markdown(runs, title, exp.description)
+        shown = runs[columns + ["impacts", "switchings", "status"]].to_string(index=False)
     else:
         runs = tables.compare(tables.records_frame(records), reference)
-        write_csv_atomic(runs[tables.TABLE1_COLUMNS], results_dir / f"{exp.name}.csv")
-        write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv")
+        columns = tables.TABLE1_COLUMNS
         title = f"{exp.name}: integrated absolute output error (deg s)"
-        write_text_atomic(results_dir / f"{exp.name}.md",
-                          tables.table1_markdown(runs, title, exp.description))
-        Console().print(tables.rich_table(runs, title))
+        markdown = tables.table1_markdown(runs, title, exp.description)
+        shown = tables.rich_table(runs, title)
+    write_csv_atomic(runs[columns], results_dir / f"{exp.name}.csv")
+    write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv")
+    write_text_atomic(results_dir / f"{exp.name}.md", markdown)
+    Console().print(shown)
     wall = sum(r.wall_s for r in records)
     console.print(f"{len(records)} runs, {wall:.2f} s of solving; wrote {results_dir / exp.name}.csv/.md")
     for msg in failures:

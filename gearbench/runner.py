@@ -54,9 +54,8 @@ def load_profiles(exp: Experiment) -> dict[str, Profile]:
     search = exp.base_dir.parent / "profiles"
     profiles = {name: load_profile(name, search if search.is_dir() else exp.base_dir)
                 for name in exp.profiles}
-    scale = getattr(exp, "profile_scale", 1.0)
-    if scale != 1.0:
-        profiles = {name: prof.scaled(scale) for name, prof in profiles.items()}
+    if exp.profile_scale != 1.0:
+        profiles = {name: prof.scaled(exp.profile_scale) for name, prof in profiles.items()}
     return profiles
 
 

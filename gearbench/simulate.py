@@ -153,10 +153,10 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     n_out = int(round(t_end / options.output_dt_s)) + 1
     t_out = np.linspace(0.0, t_end, n_out)
     outputs, stats, x_end = integrate(
-        np.asarray(p, dtype=float), np.ascontiguousarray(inputs.t, dtype=float),
+        p, np.ascontiguousarray(inputs.t, dtype=float),
         np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
         float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
-        options.rtol * np.asarray(scales, dtype=float), float(options.max_step_s),
+        options.rtol * scales, float(options.max_step_s),
         METHODS[options.method], int(options.max_steps))
     return RunResult(t_out, outputs, stats, float(t_end), label, {"x_end": x_end})
 

@@ -365,8 +365,9 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
             # from the state alone, so re-derive it.
             if hh > 0.0 and (g2[G_BB_A] > 0.0 or g2[G_BB_B] > 0.0 or g2[G_SHIFT] > 0.0):
                 if g2[G_SHIFT] > 0.0:
-                    modes[M_SHIFT] = -modes[M_SHIFT]
-                classify_bangbang(x, p, modes, ref_now)
+                    apply_event(G_SHIFT, x, p, modes, ref_now)  # flips, re-derives the bang-bang
+                else:
+                    classify_bangbang(x, p, modes, ref_now)
                 nev += 1
                 rhs(x, p, modes, ref_now, f)
                 nfe += 1
