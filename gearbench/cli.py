@@ -159,5 +159,8 @@ from .cli_validate import validate  # noqa: E402
 
 main.add_command(validate)
 
+from .cli_import import import_group  # noqa: E402
+main.add_command(import_group)
+
 if __name__ == "__main__":
     main()

@@ -35,7 +35,32 @@ P_SHIFT = 24       # set-point shift, rad (0 = off)
 P_TORQUE_IN = 25   # 1.0: the input drives the motor shaft as a torque (no electrics)
 P_COMP = 26        # backlash compensator keying the set-point shift: COMP_* (P_SHIFT > 0 only)
 P_SPEED_EPS = 27   # speed resolution of the thesis shift's sign test, rad/s (set from the solver's atol)
-P_SIZE = 32
+P_RIGID = 28       # 1.0: rigid gear (no mesh, no clearance): rotor, pinion and load turn as one
+P_DRIVE_GAIN = 29  # torque input mode: rotor torque per unit of input (1 for N m; lead/(2 pi N) for N)
+P_KV = 30          # sampled position-velocity controller: velocity gain, V / (rad/s) at the output
+P_CTRL_GAIN = 31   # sampled controller: input units per controller volt (EMPS gtau, N/V)
+# effects (plant/effects/): 0 = absent.  Friction levels are magnitudes.
+P_FRIC_EPS_M = 32  # friction regularisation speed at the motor, rad/s
+P_FRIC_EPS_L = 33  # friction regularisation speed at the load, rad/s
+P_COUL_M = 34      # Coulomb friction at the motor, N m (moving forward)
+P_COUL_M_NEG = 35  # ... moving backward, N m
+P_COUL_L = 36      # Coulomb friction at the load, N m (forward)
+P_COUL_L_NEG = 37  # ... backward, N m
+P_STR_TS_M = 38    # Stribeck static (breakaway) torque at the motor, N m
+P_STR_TC_M = 39    # Stribeck Coulomb torque at the motor, N m
+P_STR_WS_M = 40    # Stribeck speed at the motor, rad/s
+P_STR_TS_L = 41
+P_STR_TC_L = 42
+P_STR_WS_L = 43
+P_VISC_M = 44      # added viscous friction at the motor, N m s/rad (forward)
+P_VISC_M_NEG = 45  # ... backward
+P_VISC_L = 46      # added viscous friction at the load, N m s/rad (forward)
+P_VISC_L_NEG = 47  # ... backward
+P_SPRING_K = 48    # load spring stiffness, N m/rad
+P_SPRING_TH0 = 49  # load spring rest angle, rad
+P_BIAS = 50        # constant torque on the load, N m
+P_DEADZONE = 51    # amplifier dead zone threshold, V
+P_SIZE = 64
 
 LAW_DUBOWSKY = 0.0
 LAW_ELASTO = 1.0
@@ -50,6 +75,7 @@ CTRL_BANGBANG = 1.0
 CTRL_P = 2.0
 CTRL_PI = 3.0
 CTRL_PID = 4.0
+CTRL_SAMPLED_PV = 5.0  # sampled position-velocity cascade (EMPS): updated at the segment corners
 
 # ---- state vector x -------------------------------------------------------
 X_I = 0        # motor current, A

@@ -25,11 +25,14 @@ METHODS = {"rosenbrock23": L.METHOD_ROSENBROCK, "ode23s": L.METHOD_ROSENBROCK,
 class Segments(NamedTuple):
     """Piecewise-linear input: on ``[t[k], t[k+1])`` the value is ``v[k] + s[k] (t - t[k])``.
 
-    SI units: s, and rad (set point) or V / N m (open-loop input).
+    SI units: s, and rad (set point) or V / N m / N (open-loop input).  ``d``:
+    for a sampled controller, a disturbance (V) added to its output after the
+    saturation, one value per segment (None = none).
     """
     t: np.ndarray
     v: np.ndarray
     s: np.ndarray
+    d: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -38,12 +41,15 @@ class SolverOptions:
     (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
     follow from each state's typical scale); max_step_s: largest step, s (events
     inside a step are caught at the interpolant's extrema; the cap is a backstop);
-    output_dt_s: sampling interval of the returned trace, s."""
+    output_dt_s: sampling interval of the returned trace, s;
+    friction_speed_rel: the speed below which friction's sign is regularised
+    (``tanh(w/eps)``), relative to each shaft's typical speed."""
     method: str = "rosenbrock23"
     rtol: float = 1e-6
     max_step_s: float = 1e-2
     max_steps: int = 20_000_000
     output_dt_s: float = 1e-3
+    friction_speed_rel: float = 1e-4
 
 
 class SolverError(RuntimeError):
@@ -150,12 +156,15 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     scales = np.asarray(scales, dtype=float)
     p = np.array(p, dtype=float)
     p[L.P_SPEED_EPS] = options.rtol * scales[L.X_WM]
+    p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
+    p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]
     n_out = int(round(t_end / options.output_dt_s)) + 1
     t_out = np.linspace(0.0, t_end, n_out)
+    d = np.zeros(len(inputs.t)) if inputs.d is None else inputs.d
     outputs, stats, x_end = integrate(
         p, np.ascontiguousarray(inputs.t, dtype=float),
         np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
-        float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
+        np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
         options.rtol * scales, float(options.max_step_s),
         METHODS[options.method], int(options.max_steps))
     return RunResult(t_out, outputs, stats, float(t_end), label, {"x_end": x_end})

@@ -16,7 +16,7 @@ experiment files give Kp in V/deg, the thesis's unit).
 """
 import numba as nb
 
-from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, M_BB,
+from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_BB,
                       M_SHIFT, P_KD, P_KI, P_KP, P_N, P_SHIFT, P_TF, P_VMAX,
                       X_THM, X_ZD, X_ZI)
 
@@ -30,7 +30,7 @@ def control_error(x, p, modes, ref):
 @nb.njit(cache=True, inline="always")
 def command(x, p, modes, ref, kind):
     """Unsaturated controller output, V (for open loop: the input itself)."""
-    if kind == CTRL_OPEN:
+    if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         return ref
     if kind == CTRL_BANGBANG:
         return modes[M_BB] * p[P_VMAX]

@@ -28,7 +28,11 @@ import yaml
 from ..control.controllers import COMPENSATORS, Controller
 from ..plant.components import Gear, Leadscrew, Load, Motor, Plant, Shaft
 from ..simulate import METHODS, SolverOptions
-from .schema import Choice, Number, Text, check_mapping, index, join, show
+from ..plant.effects import REGISTRY as EFFECTS
+from ..plant.effects.base import AddedEffect
+from ..plant.effects.location import key as effect_key
+from ..plant.pack import pack_plant
+from .schema import Choice, Number, Text, check_mapping, index, join, show, unknown_key
 
 CONTACT_LAWS = ("dubowsky", "elasto_backlash")
 INLINE = "<inline plant>"
@@ -144,6 +148,12 @@ MOTOR = {
     "damping": Number("N m s/rad", **NONNEG),
     "max_voltage": Number("V", **POS),
 }
+# a torque- or force-driven plant has no electrics; max_drive limits the input (N m or N)
+DRIVEN_MOTOR = {
+    "inertia": Number("kg m^2", **POS),
+    "damping": Number("N m s/rad", **NONNEG, required=False, default=0.0),
+    "max_drive": Number("N m (torque drive) or N (force drive)", **POS, required=False),
+}
 GEAR = {
     "ratio": Number("motor turns per output turn", **POS),
     "backlash_deg": Number("deg", **NONNEG),
@@ -151,7 +161,12 @@ GEAR = {
     "mesh_damping": Number("N m s/rad", **NONNEG),
     "contact_law": Choice(CONTACT_LAWS, required=False, default="dubowsky"),
 }
+# a rigid gear has no mesh (no clearance, no spring); the backlash effect adds one
+RIGID_GEAR = {"ratio": Number("motor turns per output turn", **POS),
+              "rigid": Choice(("true",), required=True)}
 LOAD = {"inertia": Number("kg m^2", **POS), "damping": Number("N m s/rad", **NONNEG)}
+# with a rigid gear the load's inertia adds to the rotor's and may be 0 (all in a carriage)
+RIGID_LOAD = {"inertia": Number("kg m^2", **NONNEG), "damping": Number("N m s/rad", **NONNEG)}
 SHAFT = {
     "stiffness": Number("N m/rad", **POS),
     "damping": Number("N m s/rad", **NONNEG),
@@ -162,30 +177,54 @@ LEADSCREW = {
     "mass": Number("kg", **NONNEG),
     "damping": Number("N s/m", **NONNEG, required=False, default=0.0),
 }
-PLANT_TOP = {"name": Text(), "description": Text(nonempty=False)}
+DRIVES = ("voltage", "torque", "force")
+PLANT_TOP = {"name": Text(), "description": Text(nonempty=False),
+             "drive": Choice(DRIVES, required=False, default="voltage")}
 PLANT_SECTIONS = {"motor": (MOTOR, True), "gear": (GEAR, True), "load": (LOAD, True),
                   "shaft": (SHAFT, False), "leadscrew": (LEADSCREW, False)}
 
 
-def _check_effects(raw: Any, where: str, problems: list[str]) -> tuple:
-    """Check ``effects:``; effects are not implemented yet, so only ``[]`` passes.
+def _check_effect(item: Any, path: str, has_leadscrew: bool, problems: list[str]) -> AddedEffect | None:
+    """One ``{type: NAME, <parameters>}`` entry against the effect registry."""
+    if not isinstance(item, Mapping) or not isinstance(item.get("type"), str):
+        problems.append(f"{path} must be a mapping with a 'type' string naming an effect "
+                        f"({', '.join(EFFECTS)}), got {show(item)}")
+        return None
+    name = item["type"]
+    if name not in EFFECTS:
+        problems.append(unknown_key(join(path, "type"), name, {k: "" for k in EFFECTS},
+                                    "a known effect"))
+        return None
+    effect = EFFECTS[name]
+    before = len(problems)
+    fields: dict[str, Any] = {}
+    for opt, choices in effect.options.items():
+        fields[opt] = Choice(choices, required=opt != "location", default="load")
+    loc = item.get("location")
+    if loc == "carriage" and not has_leadscrew:
+        problems.append(f"{join(path, 'location')}: 'carriage' needs a plant with a leadscrew")
+    for q in effect.params:
+        key = effect_key({"location": loc}, q.name) if "location" in effect.options else q.name
+        fields[key] = Number(q.unit, low=q.low, low_strict=False, high=q.high, high_strict=False,
+                             required=not q.optional, integer=q.integer)
+    values = check_mapping(item, path, fields, problems, context=f"a {name} parameter",
+                           extra={"type": "effect name"})
+    if len(problems) > before or values is None:
+        return None
+    return AddedEffect(name, values)
 
-    This is the one place to extend when effects (SPEC section 5) arrive.
-    """
+
+def _check_effects(raw: Any, where: str, has_leadscrew: bool, problems: list[str]) -> tuple:
+    """Check ``effects:``, a list of ``{type: NAME, <parameters>}`` (SPEC section 5)."""
     if raw is None:
         return ()
     if not isinstance(raw, list):
         problems.append(f"{where} must be a list of effects ({{type: NAME, ...}} mappings), "
                         f"got {show(raw)}")
         return ()
-    for i, item in enumerate(raw):
-        path = index(where, i)
-        if not isinstance(item, Mapping) or not isinstance(item.get("type"), str):
-            problems.append(f"{path} must be a mapping with a 'type' string, got {show(item)}")
-        else:
-            problems.append(f"{path}: effect {item['type']!r} cannot be used: effects are not "
-                            f"implemented yet, so {where} must be an empty list ([])")
-    return tuple(dict(item) for item in raw if isinstance(item, Mapping))
+    found = [_check_effect(item, index(where, i), has_leadscrew, problems)
+             for i, item in enumerate(raw)]
+    return tuple(e for e in found if e is not None)
 
 
 def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None, list[str]]:
@@ -196,9 +235,18 @@ def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None,
     top = check_mapping(raw, where, PLANT_TOP, problems, context="a plant key", extra=sections)
     if top is None:
         return None, problems
+    drive = top.get("drive", "voltage")
+    rigid = isinstance(raw.get("gear"), Mapping) and raw["gear"].get("rigid") is True
     values: dict[str, dict | None] = {}
     for key, (fields, required) in PLANT_SECTIONS.items():
         path = join(where, key)
+        if key == "motor" and drive != "voltage":
+            fields = DRIVEN_MOTOR
+        if key == "load" and rigid:
+            fields = RIGID_LOAD
+        if key == "gear" and rigid:
+            fields = RIGID_GEAR
+            raw = dict(raw, gear=dict(raw["gear"], rigid="true"))
         if key not in raw:
             if required:
                 units = ", ".join(f"{k} ({f.short()})" for k, f in fields.items())
@@ -208,7 +256,10 @@ def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None,
         got = check_mapping(raw[key], path, fields, problems, context=f"a {key} key")
         values[key] = got if got is not None and set(got) >= {
             k for k, f in fields.items() if f.required} else None
-    effects = _check_effects(raw.get("effects"), join(where, "effects"), problems)
+    if drive == "force" and "leadscrew" not in raw:
+        problems.append(f"{join(where, 'drive')}: a force-driven plant needs a leadscrew "
+                        "(the force acts at the carriage)")
+    effects = _check_effects(raw.get("effects"), join(where, "effects"), "leadscrew" in raw, problems)
 
     motor, shaft = values["motor"], values["shaft"]
     if motor and shaft and "inertia" in motor and "pinion_inertia" in shaft:
@@ -221,12 +272,25 @@ def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None,
         return None, problems
     if shaft:  # motor.inertia in the file is rotor + pinion; Motor.inertia is then the rotor alone
         motor = dict(motor, inertia=motor["inertia"] - shaft["pinion_inertia"])
+    if drive != "voltage":
+        motor = dict(resistance=None, inductance=None, torque_constant=None, back_emf_constant=None,
+                     inertia=motor["inertia"], damping=motor["damping"],
+                     max_voltage=motor.get("max_drive", math.inf))
+    gear = values["gear"]
+    if rigid:
+        gear = dict(ratio=gear["ratio"], backlash_deg=0.0, mesh_stiffness=0.0, mesh_damping=0.0,
+                    rigid=True)
     plant = Plant(
-        motor=Motor(**motor), gear=Gear(**values["gear"]), load=Load(**values["load"]),
+        motor=Motor(**motor), gear=Gear(**gear), load=Load(**values["load"]),
         shaft=Shaft(**shaft) if shaft else None,
         leadscrew=Leadscrew(**values["leadscrew"]) if values["leadscrew"] else None,
-        effects=effects, name=top.get("name", default_name))
-    return plant, []
+        effects=effects, name=top.get("name", default_name), drive=drive)
+    for i, e in enumerate(effects):  # effects that cannot sit on this plant (a dead zone on a force drive)
+        try:
+            pack_plant(replace(plant, effects=effects[:i + 1]))
+        except ValueError as exc:
+            problems.append(f"{index(join(where, 'effects'), i)} ({e.name}): {exc}")
+    return (None, problems) if problems else (plant, [])
 
 
 def validate_plant_dict(d: Any, where: str = "") -> list[str]:

@@ -18,12 +18,14 @@ class Motor:
     resistance (ohm), inductance (H), torque_constant (N m/A),
     back_emf_constant (V s/rad), inertia (kg m^2: rotor + pinion + input shaft,
     or the rotor alone when a shaft is given), damping (N m s/rad),
-    max_voltage (V).
+    max_voltage (V).  A torque- or force-driven plant (``Plant.drive``) has no
+    electrics: the electrical fields are None and ``max_voltage`` is the
+    drive's limit in its own unit (N m or N; inf = none).
     """
-    resistance: float
-    inductance: float
-    torque_constant: float
-    back_emf_constant: float
+    resistance: float | None
+    inductance: float | None
+    torque_constant: float | None
+    back_emf_constant: float | None
     inertia: float
     damping: float
     max_voltage: float
@@ -46,13 +48,15 @@ class Gear:
 
     ratio (motor turns per output turn), backlash_deg (total clearance, deg),
     mesh_stiffness (N m/rad), mesh_damping (N m s/rad), contact_law
-    (``dubowsky`` or ``elasto_backlash``).
+    (``dubowsky`` or ``elasto_backlash``); rigid: no mesh at all (no clearance,
+    no spring: rotor and load turn as one; the ``backlash`` effect adds one).
     """
     ratio: float
     backlash_deg: float
     mesh_stiffness: float
     mesh_damping: float
     contact_law: str = "dubowsky"
+    rigid: bool = False
 
     @property
     def half_clearance(self) -> float:
@@ -95,7 +99,13 @@ class Leadscrew:
 
 @dataclass(frozen=True)
 class Plant:
-    """A motor, a gear pair with backlash, a load; optionally a shaft and a leadscrew."""
+    """A motor, a gear pair with backlash, a load; optionally a shaft and a leadscrew.
+
+    drive: what the input is: ``voltage`` (V on the motor), ``torque`` (N m a
+    current-controlled drive applies to the rotor) or ``force`` (N: the drive's
+    force expressed at the carriage; it acts on the rotor as ``F lead/(2 pi N)``,
+    so with a rigid gear it pushes the carriage).  effects: ``AddedEffect``s.
+    """
     motor: Motor
     gear: Gear
     load: Load
@@ -103,6 +113,51 @@ class Plant:
     leadscrew: Leadscrew | None = None
     effects: tuple = field(default_factory=tuple)
     name: str = "plant"
+    drive: str = "voltage"
+
+    @property
+    def motor_inertia_total(self) -> float:
+        """Rotor + pinion inertia, kg m^2."""
+        return self.motor.inertia + (self.shaft.pinion_inertia if self.shaft else 0.0)
+
+    @property
+    def drive_gain(self) -> float:
+        """Rotor torque per unit of a torque/force input (1, or lead/(2 pi N) m/rad for N)."""
+        if self.drive == "force":
+            if self.leadscrew is None:
+                raise ValueError("a force-driven plant needs a leadscrew")
+            return self.leadscrew.radius / self.gear.ratio
+        return 1.0
+
+    @property
+    def typical_torque(self) -> float:
+        """A typical rotor torque, N m: the stall torque, or the drive's limit."""
+        if self.drive == "voltage":
+            return self.motor.stall_torque
+        lim = self.motor.max_voltage * self.drive_gain
+        return lim if math.isfinite(lim) else 1.0 * self.drive_gain
+
+    @property
+    def typical_speed(self) -> float:
+        """A typical rotor speed, rad/s: the no-load speed, or drive limit / damping."""
+        if self.drive == "voltage":
+            return self.motor.no_load_speed
+        b = self.motor.damping + self.output_damping / self.gear.ratio ** 2
+        if b > 0.0 and math.isfinite(self.motor.max_voltage):
+            return self.typical_torque / b
+        return self.gear.ratio  # 1 rad/s at the output
+
+    def with_effects(self, *added) -> "Plant":
+        """This plant with more effects (``AddedEffect``s)."""
+        from dataclasses import replace
+        return replace(self, effects=tuple(self.effects) + tuple(added))
+
+    def resolved(self) -> "Plant":
+        """The plant with its structural effects (backlash, shaft) built in."""
+        plant = self
+        for e in self.effects:
+            plant = e.effect.apply(e.values, plant)
+        return plant
 
     @property
     def output_inertia(self) -> float:

@@ -11,14 +11,26 @@ CONTACT_LAWS = {"dubowsky": L.LAW_DUBOWSKY, "elasto_backlash": L.LAW_ELASTO,
 
 
 def pack_plant(plant: Plant, p: np.ndarray | None = None) -> np.ndarray:
-    """Fill the plant slots of a parameter vector (SI units)."""
+    """Fill the plant and effect slots of a parameter vector (SI units).
+
+    Structural effects are built into the plant first (``Plant.resolved``);
+    every other effect writes its own slots.
+    """
     if p is None:
         p = np.zeros(L.P_SIZE)
+    base = plant
+    plant = plant.resolved()
     m, g = plant.motor, plant.gear
-    p[L.P_R] = m.resistance
-    p[L.P_L] = m.inductance
-    p[L.P_KT] = m.torque_constant
-    p[L.P_KE] = m.back_emf_constant
+    if plant.drive == "voltage":
+        p[L.P_R] = m.resistance
+        p[L.P_L] = m.inductance
+        p[L.P_KT] = m.torque_constant
+        p[L.P_KE] = m.back_emf_constant
+    else:
+        p[L.P_R] = p[L.P_L] = 1.0  # unused: no electrics
+        p[L.P_TORQUE_IN] = 1.0
+    p[L.P_DRIVE_GAIN] = plant.drive_gain
+    p[L.P_RIGID] = 1.0 if g.rigid else 0.0
     p[L.P_JM] = m.inertia
     p[L.P_BM] = m.damping
     p[L.P_VMAX] = m.max_voltage
@@ -35,6 +47,9 @@ def pack_plant(plant: Plant, p: np.ndarray | None = None) -> np.ndarray:
         p[L.P_DS] = plant.shaft.damping
         p[L.P_JP] = plant.shaft.pinion_inertia
     p[L.P_TF] = 1.0  # harmless default; controllers set their own
+    p[L.P_FRIC_EPS_M] = p[L.P_FRIC_EPS_L] = 1.0  # the solver sets the real ones
+    for e in base.effects:
+        e.effect.pack(e.values, p, plant)
     return p
 
 
@@ -45,17 +60,18 @@ def tolerance_scales(plant: Plant) -> np.ndarray:
     torque (~1e-6 rad), not by the clearance: error control must see the
     contact's deflection, which sets the contact torque.
     """
+    plant = plant.resolved()
     m, g = plant.motor, plant.gear
-    stall = m.stall_torque
-    w0 = m.no_load_speed
+    stall = plant.typical_torque
+    w0 = plant.typical_speed
     h = max(g.half_clearance, 1e-4)
     sc = np.empty(L.N_STATE)
-    sc[L.X_I] = m.max_voltage / m.resistance
+    sc[L.X_I] = m.max_voltage / m.resistance if plant.drive == "voltage" else 1.0
     sc[L.X_THM] = 1.0
     sc[L.X_WM] = w0
     sc[L.X_PHI] = stall / plant.shaft.stiffness if plant.shaft else 1.0
     sc[L.X_WP] = w0
-    sc[L.X_DELTA] = stall * g.ratio / g.mesh_stiffness
+    sc[L.X_DELTA] = 1.0 if g.rigid else stall * g.ratio / g.mesh_stiffness
     sc[L.X_WL] = w0 / g.ratio
     sc[L.X_ZI] = h
     sc[L.X_ZD] = h

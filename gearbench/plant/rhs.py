@@ -13,17 +13,25 @@ states, and two error quadratures.  Equations (SI units)::
     Jl dw_l/dt   = T - bl w_l
 
 ``T`` is the mesh contact torque of ``plant.contact``.  With a torque input the
-electrical part drops out and ``u`` is the drive torque on the rotor (N m).
+electrical part drops out and the rotor torque is ``g u`` (``g`` = 1 for a
+torque in N m, ``lead/(2 pi N)`` for a force in N).  With a rigid gear there is
+no mesh: ``delta = 0`` and the load rides on the pinion,
+
+    (Jp + Jl/N^2) dw_p/dt = (torques on the pinion) + (Te - bl w_l)/N,  w_l = w_p/N
+
+The effects (``plant/effects``) add ``Tm_e(w_m)`` on the rotor, ``Te(theta_l,
+w_l)`` on the load, and map the command to the motor voltage.
 """
 import numba as nb
 
 from ..control.laws import command, control_error, saturate
-from ..layout import (CTRL_OPEN, CTRL_PID, M_CONTACT, P_BL, P_BM, P_CTRL, P_DMESH, P_DS,
-                      P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE, P_KMESH, P_KS,
-                      P_KT, P_L, P_LAW, P_N, P_R, P_TF, P_TORQUE_IN, P_VMAX,
-                      X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM,
-                      X_WP, X_ZD, X_ZI)
+from ..layout import (CTRL_OPEN, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, P_BL, P_BM, P_CTRL,
+                      P_DMESH, P_DRIVE_GAIN, P_DS, P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE,
+                      P_KMESH, P_KS, P_KT, P_L, P_LAW, P_N, P_R, P_RIGID, P_TF, P_TORQUE_IN,
+                      P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
+                      X_ZD, X_ZI)
 from .contact import engaged_torque
+from .effects.compiled import input_voltage, load_torque, motor_torque
 
 
 @nb.njit(cache=True, inline="always")
@@ -48,7 +56,7 @@ def mesh_rate(x, p):
 def mesh_torque(x, p, modes):
     """Contact torque on the load in the current contact mode, N m."""
     m = modes[M_CONTACT]
-    if m == 0:
+    if m == 0 or p[P_RIGID] > 0.0:
         return 0.0
     return engaged_torque(x[X_DELTA], mesh_rate(x, p), p[P_H], p[P_KMESH],
                           p[P_DMESH], p[P_LAW], m)
@@ -56,8 +64,17 @@ def mesh_torque(x, p, modes):
 
 @nb.njit(cache=True, inline="always")
 def applied_input(x, p, modes, ref):
-    """Input after saturation: motor voltage (V) or drive torque (N m)."""
-    u = command(x, p, modes, ref, p[P_CTRL])
+    """The input as applied: motor voltage (V, after any dead zone and the
+    saturation) or drive torque / force (N m or N, saturated at the drive's limit).
+
+    A sampled controller's output comes saturated from the integration loop.
+    """
+    kind = p[P_CTRL]
+    u = command(x, p, modes, ref, kind)
+    if kind == CTRL_SAMPLED_PV:
+        return u
+    if p[P_TORQUE_IN] == 0.0:
+        u = input_voltage(p, u)
     return saturate(u, p[P_VMAX])
 
 
@@ -69,27 +86,46 @@ def rhs(x, p, modes, ref, out):
     wm = x[X_WM]
     if p[P_TORQUE_IN] > 0.0:
         out[X_I] = 0.0
-        tm = u
+        tm = p[P_DRIVE_GAIN] * u
     else:
         out[X_I] = (u - p[P_R] * x[X_I] - p[P_KE] * wm) / p[P_L]
         tm = p[P_KT] * x[X_I]
-    t_mesh = mesh_torque(x, p, modes)
+    tm += motor_torque(p, wm) - p[P_BM] * wm
+    shaft = p[P_HAS_SHAFT] > 0.0
     out[X_THM] = wm
-    if p[P_HAS_SHAFT] > 0.0:
+    if shaft:
         wp = x[X_WP]
         ts = p[P_KS] * x[X_PHI] + p[P_DS] * (wm - wp)
-        out[X_WM] = (tm - p[P_BM] * wm - ts) / p[P_JM]
+        out[X_WM] = (tm - ts) / p[P_JM]
         out[X_PHI] = wm - wp
-        out[X_WP] = (ts - t_mesh / n) / p[P_JP]
     else:
         wp = wm
-        out[X_WM] = (tm - p[P_BM] * wm - t_mesh / n) / p[P_JM]
+        ts = tm
         out[X_PHI] = 0.0
         out[X_WP] = 0.0
-    out[X_DELTA] = wp / n - x[X_WL]
-    out[X_WL] = (t_mesh - p[P_BL] * x[X_WL]) / p[P_JL]
-    if p[P_CTRL] == CTRL_OPEN:
-        # open loop: `ref` is the input itself, there is no error to score
+    if p[P_RIGID] > 0.0:
+        # the load rides on the pinion: one body, reflected to the pinion
+        wl = wp / n
+        t_load = load_torque(p, load_angle(x, p), wl) - p[P_BL] * wl
+        acc = (ts + t_load / n) / ((p[P_JP] if shaft else p[P_JM]) + p[P_JL] / (n * n))
+        if shaft:
+            out[X_WP] = acc
+        else:
+            out[X_WM] = acc
+        out[X_DELTA] = 0.0
+        out[X_WL] = acc / n
+    else:
+        t_mesh = mesh_torque(x, p, modes)
+        if shaft:
+            out[X_WP] = (ts - t_mesh / n) / p[P_JP]
+        else:
+            out[X_WM] = (tm - t_mesh / n) / p[P_JM]
+        wl = x[X_WL]
+        out[X_DELTA] = wp / n - wl
+        out[X_WL] = (t_mesh - p[P_BL] * wl + load_torque(p, load_angle(x, p), wl)) / p[P_JL]
+    kind = p[P_CTRL]
+    if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
+        # `ref` is the input itself (or the held sampled command): no error to score here
         out[X_ZI] = 0.0
         out[X_ZD] = 0.0
         out[X_IAE] = 0.0
@@ -97,7 +133,7 @@ def rhs(x, p, modes, ref, out):
         return
     e = control_error(x, p, modes, ref)
     out[X_ZI] = e
-    out[X_ZD] = (e - x[X_ZD]) / p[P_TF] if p[P_CTRL] == CTRL_PID else 0.0
+    out[X_ZD] = (e - x[X_ZD]) / p[P_TF] if kind == CTRL_PID else 0.0
     err = ref - load_angle(x, p)
     out[X_IAE] = abs(err)
     out[X_ISE] = err * err

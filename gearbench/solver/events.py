@@ -23,7 +23,7 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import control_error
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, G_BB_A, G_BB_B, G_ENTER_NEG,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_RIGID, G_BB_A, G_BB_B, G_ENTER_NEG,
                       G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
                       LAW_LINEAR, N_GUARDS, N_STATE, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
                       P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, X_DELTA, X_WL, X_WM,
@@ -43,7 +43,9 @@ def guards(x, p, modes, ref, g):
     dd = mesh_rate(x, p)
     h, k, d = p[P_H], p[P_KMESH], p[P_DMESH]
     cm = modes[M_CONTACT]
-    if cm == 0:
+    if p[P_RIGID] > 0.0:
+        pass  # no mesh: no contact events
+    elif cm == 0:
         g[G_ENTER_POS] = entry_guard(delta, dd, h, k, d, 1)
         g[G_ENTER_NEG] = entry_guard(delta, dd, h, k, d, -1)
     elif p[P_LAW] == LAW_LINEAR:
@@ -51,7 +53,7 @@ def guards(x, p, modes, ref, g):
     else:
         g[G_LEAVE] = -cm * unclipped(delta, dd, h, k, d, cm)
     kind = p[P_CTRL]
-    if kind == CTRL_OPEN:
+    if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         return
     if kind == CTRL_BANGBANG:
         e = control_error(x, p, modes, ref)
@@ -98,7 +100,9 @@ def classify(x, p, modes, ref):
     h, k, d = p[P_H], p[P_KMESH], p[P_DMESH]
     modes[M_CONTACT] = 0
     linear = p[P_LAW] == LAW_LINEAR
-    if delta > h and (linear or unclipped(delta, dd, h, k, d, 1) > 0.0):
+    if p[P_RIGID] > 0.0:
+        pass
+    elif delta > h and (linear or unclipped(delta, dd, h, k, d, 1) > 0.0):
         modes[M_CONTACT] = 1
     elif delta < -h and (linear or unclipped(delta, dd, h, k, d, -1) < 0.0):
         modes[M_CONTACT] = -1

@@ -12,8 +12,8 @@ import math
 import numba as nb
 import numpy as np
 
-from ..control.laws import command
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
+from ..control.laws import command, saturate
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_CTRL_GAIN, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
                       METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -33,8 +33,8 @@ def _sign(v):
 
 
 @nb.njit(cache=True)
-def _write_output(row, x, p, modes, ref):
-    row[O_SETPOINT] = ref
+def _write_output(row, x, p, modes, ref, setpoint):
+    row[O_SETPOINT] = setpoint
     row[O_LOAD] = load_angle(x, p)
     row[O_MOTOR] = x[X_THM]
     row[O_VOLTAGE] = applied_input(x, p, modes, ref)
@@ -131,8 +131,19 @@ def _resolved_impact(x, p, modes, atol):
 
 
 @nb.njit(cache=True)
-def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
+def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
     """Integrate from rest state ``x0`` at t = 0 to ``t_end``.
+
+    With the sampled controller (``CTRL_SAMPLED_PV``) the segments are its
+    samples: ``seg_v`` the set point (rad), ``seg_d`` a disturbance added to its
+    output after the saturation (V).  At each sample it reads the motor angle
+    referred to the output, ``y = theta_m/N``, and computes (EMPS's law)
+
+        yf_k = (y_k + y_{k-1})/2,   v_k = (yf_k - yf_{k-1})/Ts,
+        c_k = Kv (Kp (r_k - y_k) - v_k)
+
+    and holds ``G (sat(c_{k-1}) + d_k)`` until the next sample (one sample of
+    delay, saturation at ``P_VMAX`` V, ``G = P_CTRL_GAIN`` input units per V).
 
     Returns ``(outputs, stats, x_end)``: ``outputs[len(t_out), N_OUT]`` sampled
     on ``t_out`` (NaN past a failure), ``stats[N_STATS]`` (``layout.S_*``).
@@ -158,18 +169,23 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
     skip = -1  # a guard refused where it stands, ignored until time moves on
     scale = atol / rtol
     vmax = p[P_VMAX]
-    closed = p[P_CTRL] != CTRL_OPEN
+    sampled = p[P_CTRL] == CTRL_SAMPLED_PV
+    closed = p[P_CTRL] != CTRL_OPEN and not sampled
+    y_prev = x0[X_THM] / p[P_N]
+    yf_prev = y_prev
+    c_prev = 0.0
     keyed = closed and p[P_SHIFT] > 0.0 and p[P_COMP] != COMP_THESIS
     rosen = method == METHOD_ROSENBROCK
     order_exp = 1.0 / 3.0 if rosen else 1.0 / 5.0
 
     t = 0.0
-    classify(x, p, modes, seg_v[0])
+    u0 = p[P_CTRL_GAIN] * seg_d[0] if sampled else seg_v[0]
+    classify(x, p, modes, u0)
     io = 0
     while io < t_out.size and t_out[io] <= t:
-        _write_output(outputs[io], x, p, modes, seg_v[0])
+        _write_output(outputs[io], x, p, modes, u0, seg_v[0])
         io += 1
-    last_sign = _sign(applied_input(x, p, modes, seg_v[0]))
+    last_sign = _sign(applied_input(x, p, modes, u0))
     h = min(hmax, 1e-5)
     max_err = 0.0
     t_sat = 0.0
@@ -191,7 +207,16 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
             continue
         v0 = seg_v[k]
         s = seg_s[k]
+        r0 = v0
         t = ta
+        if sampled:
+            y = x[X_THM] / p[P_N]
+            yf = 0.5 * (y + y_prev)
+            ts = seg_t[k] - seg_t[k - 1] if k > 0 else (seg_t[1] - seg_t[0] if nseg > 1 else 1.0)
+            c = p[P_KV] * (p[P_KP] * (v0 - y) - (yf - yf_prev) / ts)
+            v0 = p[P_CTRL_GAIN] * (saturate(c_prev, vmax) + seg_d[k])
+            s = 0.0
+            y_prev, yf_prev, c_prev = y, yf, c
         if keyed:
             # set-point-direction compensator: the shift's sign follows the
             # profile, known ahead segment by segment; it switches only here
@@ -292,7 +317,8 @@ def integrate(p, seg_t, seg_v, seg_s, t_end, x0, t_out, rtol, atol, hmax, method
                 while io < t_out.size and t_out[io] <= t1:
                     th = (t_out[io] - t) / hh
                     hermite(th, hh, x, f, xn, fn, xi)
-                    _write_output(outputs[io], xi, p, modes, v0 + s * (t_out[io] - ta))
+                    _write_output(outputs[io], xi, p, modes, v0 + s * (t_out[io] - ta),
+                                  r0 if sampled else v0 + s * (t_out[io] - ta))
                     io += 1
                 if closed:
                     hermite(0.5, hh, x, f, xn, fn, xi)

@@ -1,0 +1,54 @@
+"""``gearbench import``: external measurements into the measurement CSV format (SPEC section 3).
+
+``gearbench import emps DATA.mat|DATA.csv -o OUT.csv`` converts a record of the EMPS benchmark
+(A. Janot, M. Gautier, M. Brunot, "Data Set and Reference Models of EMPS", Workshop on Nonlinear
+System Identification Benchmarks, Eindhoven, April 2019, HAL hal-02178709); see
+``gearbench.measure.emps``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+# 12 significant digits keep every value of the record: qm's 5e-8 m steps are 5e-5 mm, and the
+# largest position (~246.4 mm) needs 8 digits; the EMPS CSV copies themselves hold 10.
+FLOAT_FORMAT = "%.12g"
+
+
+def _fail(exc: Exception) -> None:
+    from .cli import _fail as fail  # late: cli.py imports this module at its end
+
+    fail(exc)
+
+
+@click.group(name="import")
+def import_group() -> None:
+    """Convert external measurements into gearbench's measurement CSV."""
+
+
+@import_group.command("emps")
+@click.argument("data", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Measurement CSV to write (atomically).")
+def emps(data: Path, output: Path) -> None:
+    """Import an EMPS record (DATA_EMPS*.mat or its CSV copy) as a measurement CSV.
+
+    Columns: time_s [s] (sample index x 1 ms), drive_force_N [N] = gtau*vir (the input),
+    motor_position_mm and setpoint_mm [mm] (zero at the record's first motor position) and,
+    for the pulses run, disturbance_V [V] (0/5 V, already inside drive_force_N).
+    """
+    from .measure.emps import EMPS_CITATION, read_emps, to_measurement_frame
+    from .report.io import write_csv_atomic
+
+    try:
+        frame = to_measurement_frame(read_emps(data))
+        write_csv_atomic(frame, output, float_format=FLOAT_FORMAT)
+    except (OSError, ValueError) as exc:
+        _fail(exc)
+    t = frame["time_s"].to_numpy()
+    click.echo(f"wrote {output}: {len(frame)} rows, {t[-1] - t[0]:.6g} s at "
+               f"{1.0 / frame.attrs['Ts_s']:.6g} Hz, columns {', '.join(frame.columns)} "
+               f"(positions shifted by -{frame.attrs['position_offset_m']:.6g} m so the record "
+               f"starts at 0)")
+    click.echo(f"data: {EMPS_CITATION}")

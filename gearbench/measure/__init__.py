@@ -1,0 +1,1 @@
+"""Measurements: reading and checking measured records, their noise floor and their motion phases."""

@@ -1,0 +1,407 @@
+"""Measurement records in the SPEC's CSV format (section 3): read, check, write.
+
+A measurement file has one row per sample and a header of column names that carry their
+unit as a suffix (``time_s``, ``voltage_V``, ``load_angle_deg``, ...).  It needs
+
+- ``time_s`` (s), strictly increasing;
+- exactly one input: ``voltage_V`` (V), ``drive_torque_Nm`` (N m) or ``drive_force_N`` (N),
+  held constant from each sample to the next (zero-order hold);
+- at least one measured signal (:data:`SIGNAL_COLUMNS`);
+- optionally one set point (:data:`SETPOINT_COLUMNS`) and ``disturbance_V`` (V), a voltage
+  added to a controller's output after its saturation (the EMPS force pulses).
+
+``setpoint_mm``, ``motor_position_mm`` and ``disturbance_V`` are gearbench extensions for
+translational plants; everything else is the SPEC's table.  Every value must be a finite
+number.  A bad file is rejected before anything is returned, with one
+:class:`MeasurementError` that lists every problem found and names its column or row.
+Rows are counted from 1 at the first data row, so data row ``r`` is file line ``r + 1``.
+"""
+from __future__ import annotations
+
+import csv
+import difflib
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+TIME_COLUMN = "time_s"
+INPUT_COLUMNS = ("voltage_V", "drive_torque_Nm", "drive_force_N")
+SIGNAL_COLUMNS = {
+    "motor_angle_deg": "deg",
+    "load_angle_deg": "deg",
+    "load_position_mm": "mm",
+    "current_A": "A",
+    "motor_position_mm": "mm",
+}
+SETPOINT_COLUMNS = ("setpoint_deg", "setpoint_mm")
+DISTURBANCE_COLUMN = "disturbance_V"
+
+COLUMN_UNITS: dict[str, str] = {
+    TIME_COLUMN: "s",
+    "voltage_V": "V",
+    "drive_torque_Nm": "N m",
+    "drive_force_N": "N",
+    **SIGNAL_COLUMNS,
+    "setpoint_deg": "deg",
+    "setpoint_mm": "mm",
+    DISTURBANCE_COLUMN: "V",
+}
+
+# Suffixes an engineer uses for units; a column ending in one of these that is not ours
+# is most likely a unit we do not read (``load_angle_rad``), so the message says so.
+_UNIT_SUFFIXES = frozenset("""
+    s ms us ns min h hr sec secs rad rads deg degs degree degrees rev revs turn turns rpm rps
+    m mm cm um nm in inch inches ft mil mils v mv kv a ma n kn mn nm nmm ozin lbf lbfin lbft
+    kg g lb oz hz khz w kw ohm ohms pct percent count counts cnt cnts tick ticks pulse pulses
+    mps mms ins degps radps rads2 mps2
+""".split())
+
+_MIN_ROWS = 2
+
+
+class MeasurementError(ValueError):
+    """A measurement that gearbench cannot use; ``problems`` lists each reason."""
+
+    def __init__(self, message: str, problems: Sequence[str] = ()):
+        super().__init__(message)
+        self.problems = list(problems) or [message]
+
+
+@dataclass(eq=False)
+class Measurement:
+    """One measured (or simulated) record, values in the units of its columns.
+
+    ``input`` is the commanded value of ``input_name`` (V, N m or N); ``signals`` maps
+    measured column names to their samples (deg, mm or A); ``setpoint`` is the set point
+    of a closed-loop run (deg or mm, per ``setpoint_name``); ``disturbance_V`` a voltage
+    added after the controller's saturation; ``source`` where the record came from.
+    """
+
+    time_s: np.ndarray
+    input_name: str
+    input: np.ndarray
+    signals: dict[str, np.ndarray]
+    setpoint_name: str | None = None
+    setpoint: np.ndarray | None = None
+    disturbance_V: np.ndarray | None = None
+    source: str = ""
+
+    @property
+    def duration_s(self) -> float:
+        """Record length ``t[-1] − t[0]`` (s)."""
+        return float(self.time_s[-1] - self.time_s[0])
+
+    @property
+    def sample_time_s(self) -> float:
+        """Median sampling interval (s); the median ignores jitter and the odd gap."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def input_unit(self) -> str:
+        return COLUMN_UNITS[self.input_name]
+
+    def signal_unit(self, name: str) -> str:
+        """Unit of a column of this format, e.g. ``'deg'`` for ``'load_angle_deg'``."""
+        try:
+            return COLUMN_UNITS[name]
+        except KeyError:
+            raise KeyError(f"unknown column {name!r}: gearbench reads {_known_list()}") from None
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """All columns in file order: time, input, signals, set point, disturbance."""
+        cols = {TIME_COLUMN: self.time_s, self.input_name: self.input, **self.signals}
+        if self.setpoint is not None:
+            cols[self.setpoint_name] = self.setpoint
+        if self.disturbance_V is not None:
+            cols[DISTURBANCE_COLUMN] = self.disturbance_V
+        return cols
+
+    def to_frame(self) -> pd.DataFrame:
+        """The record as a DataFrame with the file's column names."""
+        return pd.DataFrame({k: np.asarray(v, dtype=float) for k, v in self.columns().items()})
+
+
+# ---------------------------------------------------------------------------
+# Checks shared by files and arrays.  Each returns a list of problems (strings).
+# ---------------------------------------------------------------------------
+
+def _known_list() -> str:
+    return ", ".join(f"{k} ({u})" for k, u in COLUMN_UNITS.items())
+
+
+def _unknown_column(name: str) -> str:
+    prefix, _, suffix = name.rpartition("_")
+    looks_like_unit = bool(prefix) and (
+        suffix.lower() in _UNIT_SUFFIXES or (len(suffix) <= 4 and any(c.isupper() for c in suffix)))
+    what = "unknown unit or column" if looks_like_unit else "unknown column"
+    hint = ""
+    same_quantity = [k for k in COLUMN_UNITS if prefix and k.rpartition("_")[0] == prefix]
+    close = same_quantity or difflib.get_close_matches(name, COLUMN_UNITS, n=1, cutoff=0.75)
+    if close:
+        hint = f" (did you mean {close[0]!r}, in {COLUMN_UNITS[close[0]]}?)"
+    return f"{what} {name!r}{hint}: gearbench reads {_known_list()}"
+
+
+def _column_problems(names: Sequence[str]) -> list[str]:
+    """Names: empty, duplicated, unknown; required ``time_s``, one input, a signal."""
+    problems = []
+    positions: dict[str, list[int]] = {}
+    for i, name in enumerate(names, start=1):
+        if not name:
+            problems.append(f"column {i} has no name (a stray comma in the header?)")
+            continue
+        positions.setdefault(name, []).append(i)
+    for name, where in positions.items():
+        if len(where) > 1:
+            problems.append(f"column {name!r} appears {len(where)} times "
+                            f"(columns {', '.join(map(str, where))})")
+        if name not in COLUMN_UNITS:
+            problems.append(_unknown_column(name))
+    present = set(positions)
+    if TIME_COLUMN not in present:
+        problems.append(f"missing column {TIME_COLUMN!r} (sample time, s)")
+    inputs = [c for c in INPUT_COLUMNS if c in present]
+    if not inputs:
+        problems.append(f"no input column: a measurement needs exactly one of {', '.join(INPUT_COLUMNS)}")
+    elif len(inputs) > 1:
+        problems.append(f"more than one input column ({', '.join(map(repr, inputs))}): "
+                        f"a measurement needs exactly one of {', '.join(INPUT_COLUMNS)}")
+    if not any(c in present for c in SIGNAL_COLUMNS):
+        problems.append(f"no measured signal: a measurement needs at least one of {', '.join(SIGNAL_COLUMNS)}")
+    setpoints = [c for c in SETPOINT_COLUMNS if c in present]
+    if len(setpoints) > 1:
+        problems.append(f"more than one set-point column ({', '.join(map(repr, setpoints))}): give one")
+    return problems
+
+
+def _sample_name(i: int) -> str:
+    """How an array's 0-based sample ``i`` is named in messages."""
+    return f"sample {i} (0-based)"
+
+
+def _file_rows(lines: np.ndarray) -> Callable[[int], str]:
+    """Name sample ``i`` by its place in the file: data row ``line − 1``, file line ``line``."""
+    return lambda i: f"data row {int(lines[i]) - 1} (file line {int(lines[i])})"
+
+
+def _value_problems(name: str, values: np.ndarray, where: Callable[[int], str],
+                    raw: np.ndarray | None = None) -> list[str]:
+    """Non-numeric, missing, NaN or infinite entries: the first one and how many."""
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size == 0:
+        return []
+    i = int(bad[0])
+    text = raw[i] if raw is not None else None
+    if isinstance(text, str) and text.strip() and not _is_number(text):
+        what = f"non-numeric value {text.strip()!r}"
+    elif np.isnan(values[i]):
+        what = "missing or NaN value"
+    else:
+        what = f"infinite value {values[i]}"
+    more = f" ({bad.size} bad rows in all)" if bad.size > 1 else ""
+    return [f"column {name!r}: {what} at {where(i)}{more}"]
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _time_problems(t: np.ndarray, where: Callable[[int], str]) -> list[str]:
+    """Times must increase strictly; name the first sample that does not."""
+    if t.size < 2 or not np.all(np.isfinite(t)):
+        return []
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size == 0:
+        return []
+    i = int(back[0]) + 1
+    if t[i] == t[i - 1]:
+        how = f"repeated time: {where(i)} has time_s = {t[i]:.10g} s, the same as the row before"
+    else:
+        how = (f"decreasing time: {where(i)} has time_s = {t[i]:.10g} s "
+               f"after {t[i - 1]:.10g} s in the row before")
+    return [f"times are not strictly increasing: {how}"]
+
+
+def _raise(problems: list[str], source: str) -> None:
+    if problems:
+        head = f"measurement {source!r} is not usable" if source else "measurement is not usable"
+        raise MeasurementError(head + ":\n  - " + "\n  - ".join(problems), problems)
+
+
+def _assemble(columns: Mapping[str, np.ndarray], source: str) -> Measurement:
+    """Build a Measurement from checked columns (all known, one input)."""
+    input_name = next(c for c in INPUT_COLUMNS if c in columns)
+    setpoint_name = next((c for c in SETPOINT_COLUMNS if c in columns), None)
+    return Measurement(
+        time_s=columns[TIME_COLUMN],
+        input_name=input_name,
+        input=columns[input_name],
+        signals={c: columns[c] for c in columns if c in SIGNAL_COLUMNS},
+        setpoint_name=setpoint_name,
+        setpoint=columns[setpoint_name] if setpoint_name else None,
+        disturbance_V=columns.get(DISTURBANCE_COLUMN),
+        source=source,
+    )
+
+
+def _check_and_assemble(names: Sequence[str], values: Mapping[str, np.ndarray], source: str,
+                        where: Callable[[int], str], raw: Mapping[str, np.ndarray] | None = None,
+                        extra: Sequence[str] = ()) -> Measurement:
+    problems = _column_problems(names) + list(extra)
+    n_rows = len(next(iter(values.values()))) if values else 0
+    if values and n_rows < _MIN_ROWS:
+        problems.append(f"{n_rows} sample(s): a measurement needs at least {_MIN_ROWS}")
+    for name, v in values.items():
+        problems += _value_problems(name, v, where, raw.get(name) if raw else None)
+    if TIME_COLUMN in values:
+        problems += _time_problems(values[TIME_COLUMN], where)
+    _raise(problems, source)
+    return _assemble(values, source)
+
+
+# ---------------------------------------------------------------------------
+# Files
+# ---------------------------------------------------------------------------
+
+def _read_header(path: Path) -> list[str]:
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        first = fh.readline()
+    if not first.strip():
+        raise MeasurementError(f"measurement file '{path}' is empty (no header line)")
+    return [name.strip() for name in next(csv.reader([first]))]
+
+
+def _read_body(path: Path, n_cols: int) -> pd.DataFrame:
+    """Data rows as parsed by pandas, columns numbered; blank lines kept so rows count true."""
+    try:
+        return pd.read_csv(path, header=None, skiprows=1, names=range(n_cols), skip_blank_lines=False,
+                           skipinitialspace=True, encoding="utf-8-sig", low_memory=False)
+    except pd.errors.EmptyDataError:
+        return pd.DataFrame(columns=range(n_cols))
+    except pd.errors.ParserError as exc:
+        found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
+        if found:
+            # pandas counts file lines from 1 with the header as line 1, as we do.
+            expected, line, seen = map(int, found.groups())
+            raise MeasurementError(
+                f"measurement file '{path}': data row {line - 1} (file line {line}) has {seen} fields, "
+                f"the header names {expected} columns", ) from None
+        raise MeasurementError(f"measurement file '{path}' is not a well-formed CSV table: {exc}") from None
+
+
+def _to_float(column: pd.Series) -> tuple[np.ndarray, np.ndarray | None]:
+    """Float values (NaN where not a number) and, if any text was found, the raw text."""
+    if pd.api.types.is_numeric_dtype(column):
+        return column.to_numpy(dtype=float), None
+    return pd.to_numeric(column, errors="coerce").to_numpy(dtype=float), column.to_numpy(dtype=object)
+
+
+def read_measurement(path: str | Path) -> Measurement:
+    """Read and check a measurement CSV (SPEC section 3); raise :class:`MeasurementError`
+    naming every bad column and the first bad row of each."""
+    path = Path(path)
+    if not path.exists():
+        raise MeasurementError(f"measurement file '{path}' does not exist")
+    if path.is_dir():
+        raise MeasurementError(f"measurement file '{path}' is a directory, not a CSV file")
+    names = _read_header(path)
+    body = _read_body(path, len(names))
+    # Blank lines carry no sample; drop them but keep every sample's own file line.
+    lines = np.arange(len(body)) + 2
+    filled = ~body.isna().all(axis=1).to_numpy()
+    body, lines = body[filled], lines[filled]
+    values, raw = {}, {}
+    for j, name in enumerate(names):
+        if name in COLUMN_UNITS and names.count(name) == 1:
+            values[name], raw[name] = _to_float(body[j])
+    extra = [] if len(body) else ["the file has a header but no data rows"]
+    if not len(body):
+        values = {}
+    return _check_and_assemble(names, values, str(path), _file_rows(lines), raw=raw, extra=extra)
+
+
+def from_frame(frame: pd.DataFrame, source: str = "") -> Measurement:
+    """Check a DataFrame in the file's column format and make it a Measurement."""
+    names = [str(c) for c in frame.columns]
+    values, raw = {}, {}
+    for j, name in enumerate(names):
+        if name in COLUMN_UNITS and names.count(name) == 1:
+            values[name], raw[name] = _to_float(frame.iloc[:, j])
+    return _check_and_assemble(names, values, source, _sample_name, raw=raw)
+
+
+def from_arrays(time_s, input_name: str, input, signals: Mapping[str, np.ndarray], setpoint=None,
+                setpoint_name: str | None = None, disturbance_V=None, source: str = "") -> Measurement:
+    """Make a Measurement from arrays, with the same checks as :func:`read_measurement`.
+
+    ``input`` is in the unit of ``input_name`` (V, N m or N), each signal in the unit of
+    its name, ``setpoint`` in the unit of ``setpoint_name`` (which is then required).
+    """
+    problems = []
+    if input_name not in INPUT_COLUMNS:
+        problems.append(f"input_name {input_name!r} is not an input: use one of {', '.join(INPUT_COLUMNS)}")
+    for name in signals:
+        if name not in SIGNAL_COLUMNS:
+            problems.append(f"signal {name!r} is not a measured signal: use {', '.join(SIGNAL_COLUMNS)}")
+    if setpoint is not None and setpoint_name not in SETPOINT_COLUMNS:
+        problems.append(f"setpoint_name {setpoint_name!r}: a set point needs one of {', '.join(SETPOINT_COLUMNS)}")
+    if setpoint is None and setpoint_name is not None:
+        problems.append(f"setpoint_name {setpoint_name!r} given without set-point values")
+    _raise(problems, source)
+
+    columns = {TIME_COLUMN: time_s, input_name: input, **signals}
+    if setpoint is not None:
+        columns[setpoint_name] = setpoint
+    if disturbance_V is not None:
+        columns[DISTURBANCE_COLUMN] = disturbance_V
+    values = {}
+    for name, v in columns.items():
+        arr = np.asarray(v)
+        if arr.ndim != 1:
+            problems.append(f"column {name!r} must be one-dimensional, got shape {arr.shape}")
+            continue
+        try:
+            values[name] = arr.astype(float)
+        except (TypeError, ValueError):
+            problems.append(f"column {name!r} holds values that are not numbers")
+    lengths = {name: len(v) for name, v in values.items()}
+    n = lengths.get(TIME_COLUMN)
+    for name, length in lengths.items():
+        if n is not None and length != n:
+            problems.append(f"column {name!r} has {length} samples, time_s has {n}")
+    _raise(problems, source)
+    return _check_and_assemble(list(columns), values, source, _sample_name)
+
+
+def _time_format(t: np.ndarray, float_format: str) -> str:
+    """``float_format`` unless it would make two times equal; then full precision."""
+    written = np.array([float(float_format % v) for v in t])
+    return float_format if np.all(np.diff(written) > 0) else "%.17g"
+
+
+def write_measurement(frame_or_measurement, path: str | Path, float_format: str = "%.10g") -> Path:
+    """Check a record and write it as a measurement CSV, atomically.
+
+    The times are written with more digits when ``float_format`` would round two of them
+    together, so that every file written can be read back.
+    """
+    from ..report.io import write_csv_atomic
+
+    m = frame_or_measurement
+    if not isinstance(m, Measurement):
+        m = from_frame(m, source=str(path))
+    frame = m.to_frame()
+    return write_csv_atomic(frame, path, float_format=_time_format(frame[TIME_COLUMN].to_numpy(), float_format))
+
+
+__all__ = ["MeasurementError", "Measurement", "INPUT_COLUMNS", "SIGNAL_COLUMNS", "SETPOINT_COLUMNS",
+           "TIME_COLUMN", "DISTURBANCE_COLUMN", "COLUMN_UNITS", "read_measurement", "from_arrays",
+           "from_frame", "write_measurement"]

@@ -1,0 +1,39 @@
+"""``amplifier_deadzone``: the motor sees nothing from small commands.
+
+    u_m = 0                      for |u| < v0
+    u_m = u - v0 sign(u)         otherwise
+
+``threshold`` v0 in V.  Acts on the voltage, before the amplifier saturates.
+"""
+import numba as nb
+
+from ... import layout as L
+from .base import Effect, Param, register
+
+
+@nb.njit(cache=True, inline="always")
+def voltage(u, v0):
+    """Voltage (V) the motor sees for command ``u`` (V)."""
+    if u > v0:
+        return u - v0
+    if u < -v0:
+        return u + v0
+    return 0.0
+
+
+def _scale(plant):
+    return 0.1 * plant.motor.max_voltage
+
+
+@register
+class AmplifierDeadzone(Effect):
+    """Amplifier dead zone: small commands do not reach the motor."""
+    name = "amplifier_deadzone"
+    acts_on = "voltage"
+    params = (Param("threshold", "V", 0.0, 1e3, _scale, "command below which the output is 0"),)
+
+    def pack(self, values, p, plant):
+        if plant.drive != "voltage":
+            raise ValueError("amplifier_deadzone acts on a voltage; this plant is driven by a "
+                             f"{plant.drive}")
+        p[L.P_DEADZONE] = float(values["threshold"])

@@ -1,0 +1,28 @@
+"""``bias_torque``: a constant torque on the load.
+
+    T = T_b           (positive drives the output forward)
+
+Gravity on an incline, a drive offset (EMPS's ``offset``, which resists:
+``T_b = -offset``).  ``torque`` in N m at the output shaft, or ``force`` in N
+with ``location: carriage`` on a leadscrew plant.
+"""
+from ... import layout as L
+from .base import Effect, Param, register
+from .location import at_shaft, torque_scale
+
+
+def _scale(plant, values):
+    return torque_scale(plant, values)
+
+
+@register
+class BiasTorque(Effect):
+    """A constant torque (or carriage force) on the load."""
+    name = "bias_torque"
+    acts_on = "load torque"
+    options = {"location": ("load", "carriage")}
+    params = (Param("torque", "N m (N at the carriage: force)", -1e6, 1e6, _scale,
+                    "constant torque, positive forward"),)
+
+    def pack(self, values, p, plant):
+        p[L.P_BIAS] += at_shaft(values, plant, "torque", 1)[1]

@@ -1,0 +1,46 @@
+"""``coulomb_friction``: constant-magnitude friction opposing motion.
+
+    T_f = -T_c sign(w)            (T_c- instead of T_c when w < 0, if given)
+
+acting on the rotor (``location: motor``) or the output shaft (``load``), or
+at the carriage as a force (``location: carriage``, ``force`` in N).  It sticks
+below ``T_c``: at standstill it holds any torque up to ``T_c``.  The compiled
+path regularises the sign as ``tanh(w / eps)``; ``eps`` is the solver's
+friction speed (``SolverOptions.friction_speed_rel`` times the location's
+typical speed), so the creep it allows while stuck is measured in the tests
+against Modelica's event-driven stick-slip.
+"""
+import math
+
+import numba as nb
+
+from ... import layout as L
+from .base import Effect, Param, register
+from .location import LOCATIONS, add, at_shaft, slot, torque_scale
+
+
+@nb.njit(cache=True, inline="always")
+def torque(w, eps, t_pos, t_neg):
+    """Friction torque on the body turning at ``w`` (rad/s), N m."""
+    return -(t_pos if w >= 0.0 else t_neg) * math.tanh(w / eps)
+
+
+@register
+class CoulombFriction(Effect):
+    """Constant-magnitude (Coulomb) friction opposing motion, sticking below it."""
+    name = "coulomb_friction"
+    acts_on = "motor or load torque"
+    options = {"location": LOCATIONS}
+    params = (
+        Param("torque", "N m (N at the carriage: force)", 0.0, 1e6, torque_scale,
+              "friction level (moving forward, or both ways)"),
+        Param("torque_negative", "N m (N at the carriage: force_negative)", 0.0, 1e6, torque_scale,
+              "level moving backward when friction is asymmetric", optional=True),
+    )
+
+    def pack(self, values, p, plant):
+        loc, tc = at_shaft(values, plant, "torque", 1)
+        tn = at_shaft(values, plant, "torque_negative", 1)[1] if (
+            "torque_negative" in values or "force_negative" in values) else tc
+        add(p, slot(loc, L.P_COUL_M, L.P_COUL_L), tc)
+        add(p, slot(loc, L.P_COUL_M_NEG, L.P_COUL_L_NEG), tn)

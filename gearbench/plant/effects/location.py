@@ -1,0 +1,76 @@
+"""Where a friction or torque effect acts, and the unit conversions it needs.
+
+``location`` is ``motor`` (the rotor), ``load`` (the output gear shaft, the
+screw in a leadscrew plant) or, for a leadscrew plant, ``carriage``: there the
+parameter is a force (N) or a coefficient (N s/m) and becomes a torque ``F r``
+or a coefficient ``c r^2`` at the screw, ``r = lead / 2 pi`` (m/rad).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ... import layout as L
+
+LOCATIONS = ("motor", "load", "carriage")
+FORCE_NAMES = {"torque": "force", "torque_negative": "force_negative",
+               "coefficient": "coefficient", "coefficient_negative": "coefficient_negative",
+               "static_torque": "static_force", "coulomb_torque": "coulomb_force",
+               "stribeck_speed": "stribeck_speed_m_s"}
+
+
+def key(values: dict, name: str) -> str:
+    """The parameter's key in the file: ``torque`` becomes ``force`` at the carriage."""
+    return FORCE_NAMES[name] if values.get("location") == "carriage" else name
+
+
+def at_shaft(values: dict, plant, name: str, power: int) -> tuple[str, float]:
+    """(``motor``|``load``, value of parameter ``name`` at that shaft, SI rotational).
+
+    ``power``: how the carriage-to-screw conversion scales the value: 1 for a
+    force (N -> N m), 2 for a coefficient (N s/m -> N m s/rad), -1 for a speed
+    (m/s -> rad/s).
+    """
+    loc = values.get("location", "load")
+    v = float(values[key(values, name)])
+    if loc == "carriage":
+        if plant.leadscrew is None:
+            raise ValueError("location 'carriage' needs a plant with a leadscrew")
+        return "load", v * plant.leadscrew.radius ** power
+    return loc, v
+
+
+def slot(loc: str, motor_slot: int, load_slot: int) -> int:
+    return motor_slot if loc == "motor" else load_slot
+
+
+def add(p: np.ndarray, i: int, v: float) -> None:
+    """Effects add to their slot, so two of a kind at one place sum."""
+    p[i] += v
+
+
+def torque_scale(plant, values: dict) -> float:
+    """Typical friction level at the effect's location, in its file unit (N m or N)."""
+    loc = values.get("location", "load")
+    t = plant.typical_torque * (1.0 if loc == "motor" else plant.gear.ratio)
+    if loc == "carriage":
+        t /= plant.leadscrew.radius
+    return 0.1 * t
+
+
+def speed_scale(plant, values: dict) -> float:
+    """Typical speed at the effect's location, rad/s (m/s at the carriage)."""
+    loc = values.get("location", "load")
+    w = plant.typical_speed
+    if loc == "motor":
+        return w
+    w /= plant.gear.ratio
+    return w * plant.leadscrew.radius if loc == "carriage" else w
+
+
+def coefficient_scale(plant, values: dict) -> float:
+    """A viscous coefficient that takes a tenth of the drive at typical speed."""
+    return torque_scale(plant, values) / speed_scale(plant, values)
+
+
+def friction_eps_slot(loc: str) -> int:
+    return L.P_FRIC_EPS_M if loc == "motor" else L.P_FRIC_EPS_L

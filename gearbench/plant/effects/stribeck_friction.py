@@ -1,0 +1,56 @@
+"""``stribeck_friction``: breakaway friction that falls to the Coulomb level.
+
+    T_f = -(T_c + (T_s - T_c) exp(-|w| / w_s)) sign(w)
+
+``static_torque`` T_s (N m) >= ``coulomb_torque`` T_c (N m), ``stribeck_speed``
+w_s (rad/s); at the carriage: ``static_force``, ``coulomb_force`` (N) and
+``stribeck_speed_m_s`` (m/s).  It sticks below T_s.  The sign is regularised
+as in ``coulomb_friction``.
+"""
+import math
+
+import numba as nb
+
+from ... import layout as L
+from .base import Effect, Param, register
+from .location import LOCATIONS, add, at_shaft, slot, speed_scale, torque_scale
+
+
+@nb.njit(cache=True, inline="always")
+def torque(w, eps, t_s, t_c, w_s):
+    """Friction torque on the body turning at ``w`` (rad/s), N m."""
+    if w_s <= 0.0:
+        return 0.0
+    return -(t_c + (t_s - t_c) * math.exp(-abs(w) / w_s)) * math.tanh(w / eps)
+
+
+def _breakaway_scale(plant, values):
+    return 1.5 * torque_scale(plant, values)
+
+
+def _stribeck_speed(plant, values):
+    return 0.05 * speed_scale(plant, values)
+
+
+@register
+class StribeckFriction(Effect):
+    """Stribeck friction: breakaway above the Coulomb level, decaying with speed."""
+    name = "stribeck_friction"
+    acts_on = "motor or load torque"
+    options = {"location": LOCATIONS}
+    params = (
+        Param("static_torque", "N m (N at the carriage: static_force)", 0.0, 1e6, _breakaway_scale,
+              "breakaway level T_s"),
+        Param("coulomb_torque", "N m (N at the carriage: coulomb_force)", 0.0, 1e6, torque_scale,
+              "sliding level T_c"),
+        Param("stribeck_speed", "rad/s (m/s at the carriage: stribeck_speed_m_s)", 1e-9, 1e6,
+              _stribeck_speed, "speed w_s over which T_s decays to T_c"),
+    )
+
+    def pack(self, values, p, plant):
+        loc, ts = at_shaft(values, plant, "static_torque", 1)
+        tc = at_shaft(values, plant, "coulomb_torque", 1)[1]
+        ws = at_shaft(values, plant, "stribeck_speed", -1)[1]
+        add(p, slot(loc, L.P_STR_TS_M, L.P_STR_TS_L), ts)
+        add(p, slot(loc, L.P_STR_TC_M, L.P_STR_TC_L), tc)
+        p[slot(loc, L.P_STR_WS_M, L.P_STR_WS_L)] = ws

@@ -1,0 +1,173 @@
+"""Figures that compare a model with a measurement: where it fails, what it lacks, and
+how the error falls as effects are added.
+
+Each function returns a :class:`matplotlib.figure.Figure` built without pyplot (so no
+figure is left open in a global registry); save it with
+:func:`gearbench.report.io.save_figure_atomic`.  The residual is
+``r = measured − simulated`` in the signal's unit throughout.
+"""
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from ..measure.phases import PHASES
+
+PHASE_COLOURS = {
+    "standstill": "#9e9e9e",
+    "steady motion": "#8fd18f",
+    "direction reversal": "#e07070",
+    "acceleration": "#f2c35b",
+}
+_SHADE_ALPHA = 0.25
+_SCATTER_MAX = 20000            # more points only slow the file down, they add no insight
+_BINS = 25
+
+
+def _shade_phases(ax, t: np.ndarray, labels: np.ndarray) -> None:
+    """Colour the background of ``ax`` by phase; one artist per phase, however many runs."""
+    for phase in PHASES:
+        sel = labels == phase
+        if sel.any():
+            ax.fill_between(t, 0, 1, where=sel, step="mid", color=PHASE_COLOURS[phase],
+                            alpha=_SHADE_ALPHA, lw=0, transform=ax.get_xaxis_transform())
+
+
+def _phase_legend(ax, labels: np.ndarray) -> None:
+    handles = [Patch(color=PHASE_COLOURS[p], alpha=_SHADE_ALPHA + 0.2, label=p)
+               for p in PHASES if np.any(labels == p)]
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=7, title="phase", title_fontsize=7)
+
+
+def comparison_figure(time_s, measured, simulated, labels, name: str, unit: str, title: str = "") -> Figure:
+    """Measured and simulated ``name`` (``unit``) against time (s), and the residual
+    ``measured − simulated`` below, both shaded by motion phase (``labels`` from
+    :func:`gearbench.measure.phases.classify_phases`, or None for no shading)."""
+    t = np.asarray(time_s, dtype=float)
+    y_m = np.asarray(measured, dtype=float)
+    y_s = np.asarray(simulated, dtype=float)
+    fig = Figure(figsize=(9, 6), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    top.plot(t, y_m, lw=1.0, color="k", label="measured")
+    top.plot(t, y_s, lw=1.0, color="C0", ls="--", label="simulated")
+    top.set_ylabel(f"{name} ({unit})")
+    top.legend(loc="upper left", fontsize=8)
+    bottom.plot(t, y_m - y_s, lw=0.8, color="C3")
+    bottom.axhline(0.0, color="k", lw=0.5)
+    bottom.set_ylabel(f"residual ({unit})")
+    bottom.set_xlabel("time (s)")
+    if labels is not None:
+        labels = np.asarray(labels).astype(str)
+        for ax in (top, bottom):
+            _shade_phases(ax, t, labels)
+        _phase_legend(bottom, labels)
+    top.set_title(title or f"{name}: measured vs simulated")
+    for ax in (top, bottom):
+        ax.grid(alpha=0.3)
+    return fig
+
+
+def _thin(n: int) -> np.ndarray:
+    return np.arange(n) if n <= _SCATTER_MAX else np.linspace(0, n - 1, _SCATTER_MAX).astype(int)
+
+
+def _binned_median(x: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Median residual in bins of equal count along ``x``: the trend a scatter hides."""
+    order = np.argsort(x)
+    groups = [g for g in np.array_split(order, min(_BINS, x.size)) if g.size]
+    return (np.array([np.median(x[g]) for g in groups]), np.array([np.median(r[g]) for g in groups]))
+
+
+_DIRECTIONS = (("negative", "C0"), ("standstill", "#7f7f7f"), ("positive", "C3"))
+
+
+def _direction_groups(v: np.ndarray, v0: float) -> dict[str, np.ndarray]:
+    return {"negative": v < -v0, "standstill": np.abs(v) <= v0, "positive": v > v0}
+
+
+def _scatter_by_direction(ax, x: np.ndarray, r: np.ndarray, groups: dict[str, np.ndarray],
+                          xlabel: str, ylabel: str) -> None:
+    """Residual against ``x``, coloured by direction, with each direction's binned median:
+    separate branches keep a hysteresis (friction, clearance) from averaging to zero."""
+    keep = np.zeros(x.size, dtype=bool)
+    keep[_thin(x.size)] = True
+    for name, colour in _DIRECTIONS:
+        sel = groups[name]
+        if not sel.any():
+            continue
+        ax.plot(x[sel & keep], r[sel & keep], ".", ms=1.5, alpha=0.25, color=colour, rasterized=True)
+        bx, br = _binned_median(x[sel], r[sel])
+        ax.plot(bx, br, "-o", ms=2.5, lw=1.2, color=colour, label=f"{name} (median)")
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize=7)
+
+
+def residual_figure(residual, speed, position, name: str, unit: str, speed_unit: str, position_unit: str,
+                    standstill_speed: float | None = None) -> Figure:
+    """The residual (``unit``) against speed, against position, and by direction of motion.
+
+    What each panel shows an engineer: a step at zero speed is Coulomb friction, a
+    slope against speed viscous friction, a slope against position a spring, and an
+    offset whose sign follows the direction of motion a clearance.  Points are coloured
+    by direction; standstill is ``|speed| ≤ standstill_speed`` (default 2 % of the peak
+    speed).
+    """
+    r = np.asarray(residual, dtype=float)
+    v = np.asarray(speed, dtype=float)
+    x = np.asarray(position, dtype=float)
+    if not r.shape == v.shape == x.shape:
+        raise ValueError(f"residual, speed and position differ in shape: {r.shape}, {v.shape}, {x.shape}")
+    v0 = standstill_speed if standstill_speed is not None else 0.02 * float(np.max(np.abs(v), initial=0.0))
+    groups = _direction_groups(v, v0)
+    fig = Figure(figsize=(12, 4), layout="constrained")
+    ax_v, ax_x, ax_d = fig.subplots(1, 3, sharey=True)
+    _scatter_by_direction(ax_v, v, r, groups, f"speed ({speed_unit})", f"residual {name} ({unit})")
+    ax_v.set_title("vs speed: step at 0 → Coulomb, slope → viscous", fontsize=9)
+    _scatter_by_direction(ax_x, x, r, groups, f"position ({position_unit})", "")
+    ax_x.set_title("vs position: slope → spring", fontsize=9)
+    # An empty group keeps its place on the axis, so the three always line up.
+    data = [r[sel] if sel.any() else np.array([np.nan]) for sel in groups.values()]
+    ax_d.boxplot(data, showfliers=False)
+    ax_d.set_xticks([1, 2, 3], [f"{k}\n(n={int(sel.sum())})" for k, sel in groups.items()])
+    ax_d.axhline(0.0, color="k", lw=0.5)
+    ax_d.set_xlabel("direction of motion")
+    ax_d.set_title("by direction: offset with sign → clearance", fontsize=9)
+    ax_d.grid(alpha=0.3)
+    return fig
+
+
+def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, unit: str = "",
+                  title: str = "") -> Figure:
+    """The error after each step of the ladder: ``steps[0]`` the baseline, then one
+    ``{"effect": name, "error": value}`` per effect added; a dashed line marks the
+    noise floor (the error noise alone would leave) when given.  ``unit`` labels the
+    error axis."""
+    if not steps:
+        raise ValueError("a ladder needs at least its baseline step")
+    names = [str(s["effect"]) if i == 0 else f"+ {s['effect']}" for i, s in enumerate(steps)]
+    errors = np.array([float(s["error"]) for s in steps])
+    fig = Figure(figsize=(max(5.0, 1.3 * len(steps) + 2), 4), layout="constrained")
+    ax = fig.subplots()
+    pos = np.arange(len(steps))
+    bars = ax.bar(pos, errors, color=["#9e9e9e"] + ["C0"] * (len(steps) - 1), width=0.6)
+    ax.bar_label(bars, fmt="%.3g", fontsize=8, padding=2)
+    if noise_floor is not None:
+        ax.axhline(noise_floor, color="C3", ls="--", lw=1, label=f"noise floor {noise_floor:.3g}")
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xticks(pos, names, rotation=20, ha="right")
+    ax.set_ylabel(f"error ({unit})" if unit else "error")
+    ax.set_ylim(0, 1.15 * max(float(errors.max()), noise_floor or 0.0) or 1.0)
+    ax.set_title(title or "error as effects are added")
+    ax.grid(axis="y", alpha=0.3)
+    return fig
+
+
+__all__ = ["comparison_figure", "residual_figure", "ladder_figure", "PHASE_COLOURS"]
