@@ -60,6 +60,7 @@ P_SPRING_K = 48    # load spring stiffness, N m/rad
 P_SPRING_TH0 = 49  # load spring rest angle, rad
 P_BIAS = 50        # constant torque on the load, N m
 P_DEADZONE = 51    # amplifier dead zone threshold, V
+P_DELAY = 52       # sampled controller: 1.0 holds the previous sample's command (one sample of delay)
 P_SIZE = 64
 
 LAW_DUBOWSKY = 0.0

@@ -148,9 +148,13 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
 
 def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: float,
                     x0: np.ndarray, options: SolverOptions = SolverOptions(),
-                    label: str = "") -> RunResult:
+                    label: str = "", output_times: np.ndarray | None = None) -> RunResult:
     """Lower-level entry: an already packed parameter vector ``p`` (``layout.P_*``),
-    the states' typical scales (``atol = rtol * scales``) and an initial state."""
+    the states' typical scales (``atol = rtol * scales``) and an initial state.
+
+    ``output_times`` (s, increasing, within [0, t_end]) replaces the regular
+    ``options.output_dt_s`` grid.  ``meta["segment_input"]`` holds the input
+    held on each segment (a sampled controller's commands)."""
     if options.method not in METHODS:
         raise ValueError(f"unknown solver method {options.method!r}; choose one of {sorted(METHODS)}")
     scales = np.asarray(scales, dtype=float)
@@ -158,16 +162,19 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     p[L.P_SPEED_EPS] = options.rtol * scales[L.X_WM]
     p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
     p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]
-    n_out = int(round(t_end / options.output_dt_s)) + 1
-    t_out = np.linspace(0.0, t_end, n_out)
+    if output_times is None:
+        t_out = np.linspace(0.0, t_end, int(round(t_end / options.output_dt_s)) + 1)
+    else:
+        t_out = np.ascontiguousarray(output_times, dtype=float)
     d = np.zeros(len(inputs.t)) if inputs.d is None else inputs.d
-    outputs, stats, x_end = integrate(
+    outputs, stats, x_end, seg_u = integrate(
         p, np.ascontiguousarray(inputs.t, dtype=float),
         np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
         np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
         options.rtol * scales, float(options.max_step_s),
         METHODS[options.method], int(options.max_steps))
-    return RunResult(t_out, outputs, stats, float(t_end), label, {"x_end": x_end})
+    return RunResult(t_out, outputs, stats, float(t_end), label,
+                     {"x_end": x_end, "segment_input": seg_u})
 
 
 def failure_message(run: RunResult, name: str) -> str:

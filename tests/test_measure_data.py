@@ -138,6 +138,7 @@ def test_short_row(tmp_path):
 @pytest.mark.parametrize("text, expected", [
     ("", "is empty"),
     ("\n\n", "is empty"),
+    ("\ntime_s,voltage_V,load_angle_deg\n0,1,2\n", "file line 1 is blank"),
     ("time_s,voltage_V,load_angle_deg\n", "no data rows"),
     ("time_s,voltage_V,load_angle_deg\n0,1,2\n", "1 sample(s): a measurement needs at least 2"),
 ])

@@ -28,6 +28,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from ..report.io import write_csv_atomic
+
 TIME_COLUMN = "time_s"
 INPUT_COLUMNS = ("voltage_V", "drive_torque_Nm", "drive_force_N")
 SIGNAL_COLUMNS = {
@@ -79,6 +81,8 @@ class Measurement:
     measured column names to their samples (deg, mm or A); ``setpoint`` is the set point
     of a closed-loop run (deg or mm, per ``setpoint_name``); ``disturbance_V`` a voltage
     added after the controller's saturation; ``source`` where the record came from.
+    Built by :func:`read_measurement` or :func:`from_arrays`, it has been checked; built
+    directly, it has not.
     """
 
     time_s: np.ndarray
@@ -274,8 +278,11 @@ def _check_and_assemble(names: Sequence[str], values: Mapping[str, np.ndarray], 
 def _read_header(path: Path) -> list[str]:
     with open(path, newline="", encoding="utf-8-sig") as fh:
         first = fh.readline()
+        rest = fh.read(1)
     if not first.strip():
-        raise MeasurementError(f"measurement file '{path}' is empty (no header line)")
+        if not rest.strip():
+            raise MeasurementError(f"measurement file '{path}' is empty")
+        raise MeasurementError(f"measurement file '{path}': file line 1 is blank; it must be the header")
     return [name.strip() for name in next(csv.reader([first]))]
 
 
@@ -318,14 +325,14 @@ def read_measurement(path: str | Path) -> Measurement:
     lines = np.arange(len(body)) + 2
     filled = ~body.isna().all(axis=1).to_numpy()
     body, lines = body[filled], lines[filled]
+    where = _file_rows(lines)
+    if not len(body):
+        return _check_and_assemble(names, {}, str(path), where, extra=["the file has a header but no data rows"])
     values, raw = {}, {}
     for j, name in enumerate(names):
         if name in COLUMN_UNITS and names.count(name) == 1:
             values[name], raw[name] = _to_float(body[j])
-    extra = [] if len(body) else ["the file has a header but no data rows"]
-    if not len(body):
-        values = {}
-    return _check_and_assemble(names, values, str(path), _file_rows(lines), raw=raw, extra=extra)
+    return _check_and_assemble(names, values, str(path), where, raw=raw)
 
 
 def from_frame(frame: pd.DataFrame, source: str = "") -> Measurement:
@@ -393,8 +400,6 @@ def write_measurement(frame_or_measurement, path: str | Path, float_format: str 
     The times are written with more digits when ``float_format`` would round two of them
     together, so that every file written can be read back.
     """
-    from ..report.io import write_csv_atomic
-
     m = frame_or_measurement
     if not isinstance(m, Measurement):
         m = from_frame(m, source=str(path))

@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import command, saturate
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_CTRL_GAIN, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
                       METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -142,11 +142,15 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
         yf_k = (y_k + y_{k-1})/2,   v_k = (yf_k - yf_{k-1})/Ts,
         c_k = Kv (Kp (r_k - y_k) - v_k)
 
-    and holds ``G (sat(c_{k-1}) + d_k)`` until the next sample (one sample of
-    delay, saturation at ``P_VMAX`` V, ``G = P_CTRL_GAIN`` input units per V).
+    and holds ``G (sat(c_{k-1}) + d_k)`` until the next sample (with
+    ``P_DELAY`` = 1; ``c_k`` without the delay; saturation at ``P_VMAX`` V,
+    ``G = P_CTRL_GAIN`` input units per V).  Before t = 0 it is taken to have
+    seen the initial speed, so a record that starts moving starts smoothly.
 
-    Returns ``(outputs, stats, x_end)``: ``outputs[len(t_out), N_OUT]`` sampled
-    on ``t_out`` (NaN past a failure), ``stats[N_STATS]`` (``layout.S_*``).
+    Returns ``(outputs, stats, x_end, seg_u)``: ``outputs[len(t_out), N_OUT]``
+    sampled on ``t_out`` (NaN past a failure), ``stats[N_STATS]``
+    (``layout.S_*``), and the input held on each segment (the sampled
+    controller's commands).
     """
     n = N_STATE
     outputs = np.full((t_out.size, N_OUT), np.nan)
@@ -171,9 +175,13 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     vmax = p[P_VMAX]
     sampled = p[P_CTRL] == CTRL_SAMPLED_PV
     closed = p[P_CTRL] != CTRL_OPEN and not sampled
-    y_prev = x0[X_THM] / p[P_N]
-    yf_prev = y_prev
+    # the sampled controller's memory, as if it had run before t = 0 at the initial speed
+    ts0 = seg_t[1] - seg_t[0] if seg_t.size > 1 else 1.0
+    w0 = x0[X_WM] / p[P_N]
+    y_prev = x0[X_THM] / p[P_N] - w0 * ts0
+    yf_prev = y_prev - 0.5 * w0 * ts0
     c_prev = 0.0
+    seg_u = np.zeros(seg_t.size)
     keyed = closed and p[P_SHIFT] > 0.0 and p[P_COMP] != COMP_THESIS
     rosen = method == METHOD_ROSENBROCK
     order_exp = 1.0 / 3.0 if rosen else 1.0 / 5.0
@@ -214,9 +222,11 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             yf = 0.5 * (y + y_prev)
             ts = seg_t[k] - seg_t[k - 1] if k > 0 else (seg_t[1] - seg_t[0] if nseg > 1 else 1.0)
             c = p[P_KV] * (p[P_KP] * (v0 - y) - (yf - yf_prev) / ts)
-            v0 = p[P_CTRL_GAIN] * (saturate(c_prev, vmax) + seg_d[k])
+            c_held = c_prev if p[P_DELAY] > 0.0 else c
+            v0 = p[P_CTRL_GAIN] * (saturate(c_held, vmax) + seg_d[k])
             s = 0.0
             y_prev, yf_prev, c_prev = y, yf, c
+        seg_u[k] = v0
         if keyed:
             # set-point-direction compensator: the shift's sign follows the
             # profile, known ahead segment by segment; it switches only here
@@ -416,4 +426,4 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     stats[S_REJECTED] = nrej
     stats[S_EVENTS] = nev
     stats[S_FEVALS] = nfe
-    return outputs, stats, x
+    return outputs, stats, x, seg_u

@@ -1,0 +1,1 @@
+"""Models against measurements: replay a record, fit effects, diagnose what is missing."""

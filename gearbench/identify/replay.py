@@ -1,0 +1,212 @@
+"""Drive the model the way the measured record was driven.
+
+Open loop: the measured input (voltage, drive torque or force), held from
+sample to sample.  Closed loop (``controller`` given, e.g. EMPS's sampled
+position-velocity cascade): the controller driven by the recorded set point
+(and disturbance), its output compared with the measured input.
+
+An open-loop record of a plant that integrates (speed -> angle) drifts: a
+small speed error grows into a large angle error that says nothing about the
+physics.  So open-loop replays are cut into windows (``window_s``); at each
+window's start the angle states are re-initialised from the measurement (a
+local straight-line fit, so the reset does not carry one sample's noise),
+while the speeds, current and mesh state run on from the previous window.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .. import layout as L
+from ..measure.data import Measurement
+from ..plant.components import Plant
+from ..plant.pack import pack_plant, rest_state, tolerance_scales
+from ..simulate import Segments, SolverOptions, failure_message, simulate_packed
+from . import signals as S
+
+DRIVES = {"voltage_V": "voltage", "drive_torque_Nm": "torque", "drive_force_N": "force"}
+
+
+class ReplayError(RuntimeError):
+    """A replay that cannot run or failed; the message says which and why."""
+
+
+def local_value_and_slope(t: np.ndarray, y: np.ndarray, i: int, half: int = 10) -> tuple[float, float]:
+    """Straight-line fit of ``y`` over samples ``i - half .. i + half``: value and slope at ``t[i]``."""
+    a, b = max(0, i - half), min(len(t), i + half + 1)
+    tt = t[a:b] - t[i]
+    if b - a < 3:
+        return float(y[i]), 0.0
+    slope, value = np.polyfit(tt, y[a:b], 1)
+    return float(value), float(slope)
+
+
+@dataclass
+class Replay:
+    """How to simulate ``data`` with a plant.
+
+    controller: a closed-loop law (``control.sampled.SampledPV``) driven by the
+    record's set point, or None for open loop; window_s: open-loop re-initialisation
+    interval, s (None: one window); options: solver options.
+    """
+    data: Measurement
+    controller: object | None = None
+    window_s: float | None = 1.0
+    options: SolverOptions = field(default_factory=lambda: SolverOptions(rtol=1e-5, max_step_s=1e-3))
+
+    def __post_init__(self):
+        t = self.data.time_s
+        self.t0 = float(t[0])
+        self.t = t - self.t0
+        if self.controller is not None and self.data.setpoint is None:
+            raise ReplayError(f"{self.data.source}: a closed-loop replay needs a set point column "
+                              "(setpoint_deg or setpoint_mm)")
+
+    @property
+    def closed_loop(self) -> bool:
+        return self.controller is not None
+
+    def compared(self) -> list[str]:
+        """The columns a replay predicts: the measured signals, and the input in closed loop."""
+        names = list(self.data.signals)
+        if self.closed_loop:
+            names.append(self.data.input_name)
+        return names
+
+    def check(self, plant: Plant) -> None:
+        want = DRIVES[self.data.input_name]
+        if plant.drive != want:
+            raise ReplayError(f"the plant {plant.name!r} is driven by {plant.drive} but "
+                              f"{self.data.source or 'the record'}'s input is {self.data.input_name}; "
+                              f"set the plant's drive: {want}")
+        for name in self.data.signals:
+            if name.endswith("_mm") and plant.leadscrew is None:
+                raise ReplayError(f"{self.data.source}: column {name} needs a plant with a leadscrew")
+
+    # ---------------------------------------------------------------- state
+    def _motion(self, plant: Plant):
+        """Measured output angle (rad) from the best position signal, or None."""
+        for name in ("motor_angle_deg", "motor_position_mm", "load_angle_deg", "load_position_mm"):
+            if name in self.data.signals:
+                return name, S.to_output_rad(name, self.data.signals[name], plant)
+        return None, None
+
+    def scales(self, plant: Plant) -> np.ndarray:
+        """Tolerance scales; speeds from the record's peak speed when it has positions."""
+        sc = tolerance_scales(plant)
+        _, th = self._motion(plant)
+        if th is not None and len(th) > 5:
+            w = np.max(np.abs(np.gradient(th, self.t)))
+            if np.isfinite(w) and w > 0:
+                n = plant.gear.ratio
+                sc[L.X_WL] = w
+                sc[L.X_WM] = sc[L.X_WP] = w * n
+        return sc
+
+    def initial_state(self, plant: Plant) -> np.ndarray:
+        """At rest with the mesh centred, unless the record starts moving (then at that speed)."""
+        x = rest_state(plant)
+        _, th = self._motion(plant)
+        if th is not None:
+            _, w = local_value_and_slope(self.t, th, 0)
+            n = plant.gear.ratio
+            x[L.X_WL] = w
+            x[L.X_WM] = x[L.X_WP] = w * n
+            if plant.drive == "voltage":
+                m = plant.motor
+                x[L.X_I] = (float(self.data.input[0]) - m.back_emf_constant * w * n) / m.resistance
+        return x
+
+    def _reset_angles(self, x: np.ndarray, i: int, plant: Plant) -> None:
+        """Move the angle states so the model's position matches the measured one at sample i."""
+        name, th = self._motion(plant)
+        if th is None:
+            return
+        meas, _ = local_value_and_slope(self.t, th, i)
+        n = plant.gear.ratio
+        model = x[L.X_THM] / n if name.startswith("motor") else (
+            (x[L.X_THM] - x[L.X_PHI]) / n - x[L.X_DELTA])
+        x[L.X_THM] += n * (meas - model)
+
+    # ---------------------------------------------------------------- run
+    def pack(self, plant: Plant) -> np.ndarray:
+        p = pack_plant(plant)
+        if self.closed_loop:
+            self.controller.pack(plant, p)
+        else:
+            p[L.P_CTRL] = L.CTRL_OPEN
+        return p
+
+    def _segments(self, plant: Plant, a: int, b: int) -> Segments:
+        t = self.t[a:b] - self.t[a]
+        z = np.zeros(b - a)
+        if self.closed_loop:
+            r = S.to_output_rad(self.data.setpoint_name.replace("setpoint", "load_angle" if
+                                self.data.setpoint_name.endswith("_deg") else "load_position"),
+                                self.data.setpoint[a:b], plant)
+            d = self.data.disturbance_V[a:b] if self.data.disturbance_V is not None else z
+            return Segments(t, r, z, d)
+        return Segments(t, np.asarray(self.data.input[a:b], dtype=float), z)
+
+    def windows(self) -> list[tuple[int, int]]:
+        """Sample ranges [a, b) of the windows (b of one is a of the next)."""
+        n = len(self.t)
+        if self.closed_loop or not self.window_s:
+            return [(0, n)]
+        edges = [0]
+        while True:
+            nxt = int(np.searchsorted(self.t, self.t[edges[-1]] + self.window_s))
+            if nxt >= n - 2:
+                break
+            edges.append(nxt)
+        edges.append(n)
+        return list(zip(edges[:-1], edges[1:]))
+
+    def run(self, plant: Plant, label: str = "") -> dict[str, np.ndarray]:
+        """Simulated columns (``compared()``) at the record's samples, in its units,
+        sensor effects applied.  Raises :class:`ReplayError` if the solver fails."""
+        self.check(plant)
+        p = self.pack(plant)
+        sc = self.scales(plant)
+        x = self.initial_state(plant)
+        outs = []
+        seg_u = []
+        for a, b in self.windows():
+            if a > 0:
+                self._reset_angles(x, a, plant)
+            segs = self._segments(plant, a, b)
+            t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
+            times = self.t[a:b] - self.t[a]
+            run = simulate_packed(p, sc, segs, max(t_end, times[-1]), x, self.options,
+                                  label, output_times=times)
+            if not run.ok:
+                msg = failure_message(run, plant.name)
+                raise ReplayError(msg.replace(f"t = {run.stats[L.S_T_FAIL]:.6g} s",
+                                              f"t = {self.t[a] + run.stats[L.S_T_FAIL] + self.t0:.6g} s"))
+            outs.append(run.outputs)
+            seg_u.append(run.meta["segment_input"])
+            x = run.meta["x_end"].copy()
+            x[L.X_IAE] = x[L.X_ISE] = 0.0
+        out = np.vstack(outs)
+        sim = {}
+        for name in self.data.signals:
+            y = S.from_outputs(name, out, plant)
+            for e in plant.effects:
+                y = e.effect.measure(e.values, name, y, self.t, plant)
+            sim[name] = y
+        if self.closed_loop:
+            sim[self.data.input_name] = np.concatenate(seg_u)
+        return sim
+
+    def residuals(self, sim: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Measured minus simulated, per compared column."""
+        res = {}
+        for name, y in sim.items():
+            meas = self.data.input if name == self.data.input_name else self.data.signals[name]
+            res[name] = np.asarray(meas, dtype=float) - y
+        return res
+
+    def measured(self, name: str) -> np.ndarray:
+        return np.asarray(self.data.input if name == self.data.input_name else self.data.signals[name],
+                          dtype=float)
