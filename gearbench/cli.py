@@ -162,5 +162,14 @@ main.add_command(validate)
 from .cli_import import import_group  # noqa: E402
 main.add_command(import_group)
 
+from .cli_synth import synth  # noqa: E402
+main.add_command(synth)
+
+from .cli_identify import compare, diagnose, fit  # noqa: E402
+
+main.add_command(compare)
+main.add_command(diagnose)
+main.add_command(fit)
+
 if __name__ == "__main__":
     main()

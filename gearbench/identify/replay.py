@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import layout as L
 from ..measure.data import Measurement
+from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
 from ..simulate import Segments, SolverOptions, failure_message, simulate_packed
@@ -53,7 +54,7 @@ class Replay:
     data: Measurement
     controller: object | None = None
     window_s: float | None = 1.0
-    options: SolverOptions = field(default_factory=lambda: SolverOptions(rtol=1e-5, max_step_s=1e-3))
+    options: SolverOptions = field(default_factory=lambda: SolverOptions(rtol=1e-6, max_step_s=1e-3))
 
     def __post_init__(self):
         t = self.data.time_s
@@ -93,16 +94,9 @@ class Replay:
         return None, None
 
     def scales(self, plant: Plant) -> np.ndarray:
-        """Tolerance scales; speeds from the record's peak speed when it has positions."""
-        sc = tolerance_scales(plant)
-        _, th = self._motion(plant)
-        if th is not None and len(th) > 5:
-            w = np.max(np.abs(np.gradient(th, self.t)))
-            if np.isfinite(w) and w > 0:
-                n = plant.gear.ratio
-                sc[L.X_WL] = w
-                sc[L.X_WM] = sc[L.X_WP] = w * n
-        return sc
+        """Tolerance scales of the plant itself, not of this record: they also
+        set friction's regularisation speed, which must not move with the data."""
+        return tolerance_scales(plant)
 
     def initial_state(self, plant: Plant) -> np.ndarray:
         """At rest with the mesh centred, unless the record starts moving (then at that speed)."""
@@ -147,19 +141,30 @@ class Replay:
                                 self.data.setpoint[a:b], plant)
             d = self.data.disturbance_V[a:b] if self.data.disturbance_V is not None else z
             return Segments(t, r, z, d)
-        return Segments(t, np.asarray(self.data.input[a:b], dtype=float), z)
+        u = np.asarray(self.data.input[a:b], dtype=float)
+        # a held input that does not change needs no restart of the integrator
+        keep = np.r_[True, u[1:] != u[:-1]]
+        return Segments(t[keep], u[keep], z[keep])
 
-    def windows(self) -> list[tuple[int, int]]:
-        """Sample ranges [a, b) of the windows (b of one is a of the next)."""
+    def windows(self, plant: Plant) -> list[tuple[int, int]]:
+        """Sample ranges [a, b) of the windows (b of one is a of the next).
+
+        Each boundary is the slowest sample within a quarter window of its
+        nominal time: at rest the reset's straight-line fit is exact.
+        """
         n = len(self.t)
         if self.closed_loop or not self.window_s:
             return [(0, n)]
+        _, th = self._motion(plant)
+        speed = np.abs(smoothed_speed(self.t, th)[0]) if th is not None else np.zeros(n)
         edges = [0]
         while True:
-            nxt = int(np.searchsorted(self.t, self.t[edges[-1]] + self.window_s))
-            if nxt >= n - 2:
+            nominal = self.t[edges[-1]] + self.window_s
+            lo = int(np.searchsorted(self.t, nominal - 0.25 * self.window_s))
+            hi = int(np.searchsorted(self.t, nominal + 0.25 * self.window_s))
+            if hi >= n - 2:
                 break
-            edges.append(nxt)
+            edges.append(lo + int(np.argmin(speed[lo:hi + 1])))
         edges.append(n)
         return list(zip(edges[:-1], edges[1:]))
 
@@ -172,7 +177,7 @@ class Replay:
         x = self.initial_state(plant)
         outs = []
         seg_u = []
-        for a, b in self.windows():
+        for a, b in self.windows(plant):
             if a > 0:
                 self._reset_angles(x, a, plant)
             segs = self._segments(plant, a, b)

@@ -21,7 +21,7 @@ def voltage(u, v0):
     return 0.0
 
 
-def _scale(plant):
+def _scale(plant, values):
     return 0.1 * plant.motor.max_voltage
 
 
@@ -37,3 +37,6 @@ class AmplifierDeadzone(Effect):
             raise ValueError("amplifier_deadzone acts on a voltage; this plant is driven by a "
                              f"{plant.drive}")
         p[L.P_DEADZONE] = float(values["threshold"])
+
+    def applicable(self, plant, signals):
+        return plant.drive == "voltage"

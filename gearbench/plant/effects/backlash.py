@@ -15,7 +15,7 @@ from dataclasses import replace
 from .base import Effect, Param, register
 
 
-def _clearance_scale(plant):
+def _clearance_scale(plant, values):
     return 1.0
 
 
@@ -34,6 +34,9 @@ class Backlash(Effect):
 
     def fit_params(self, values):
         return self.params[:1]
+
+    def applicable(self, plant, signals):
+        return plant.gear.backlash_deg == 0.0
 
     def apply(self, values, plant):
         gear = replace(plant.gear, backlash_deg=float(values["backlash_deg"]))

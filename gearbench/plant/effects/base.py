@@ -46,9 +46,11 @@ class Param:
     description: str = ""
     integer: bool = False
     optional: bool = False
+    start: float | None = None  # where a fit starts (default: the typical value)
 
-    def typical(self, plant) -> float:
-        return float(self.scale(plant) if callable(self.scale) else self.scale)
+    def typical(self, plant, values: dict) -> float:
+        """A typical value on ``plant`` (the effect's options in ``values``)."""
+        return float(self.scale(plant, values) if callable(self.scale) else self.scale)
 
 
 class Effect:
@@ -69,6 +71,15 @@ class Effect:
     def apply(self, values: dict, plant):
         """A structural effect returns the changed plant; others return it unchanged."""
         return plant
+
+    def applicable(self, plant, signals) -> bool:
+        """Whether this effect can be added to ``plant`` for a record measuring ``signals``."""
+        return True
+
+    def estimate(self, values: dict, measured: dict, plant) -> dict | None:
+        """Parameters read straight from the measured signals, for effects a
+        least-squares fit cannot move (integer counts); None = fit instead."""
+        return None
 
     def measure(self, values: dict, name: str, y: np.ndarray, time_s: np.ndarray, plant) -> np.ndarray:
         """A sensor effect distorts measured signal ``name``; others leave it."""

@@ -34,6 +34,15 @@ class EncoderQuantization(Effect):
     params = (Param("counts_per_rev", "counts/rev", 1.0, 1e9, 1000.0,
                     "counts per revolution of the signal's shaft", integer=True),)
 
+    def estimate(self, values, measured, plant):
+        """Counts per revolution from the grid the measured values sit on."""
+        from ...measure.noise import detect_quantum
+        q = detect_quantum(measured[values["signal"]])
+        if not q:
+            return None
+        counts = quantum(dict(values, counts_per_rev=1.0), plant) / q
+        return {"counts_per_rev": int(round(counts))}
+
     def measure(self, values, name, y, time_s, plant):
         if name != values["signal"]:
             return y

@@ -19,7 +19,7 @@ def torque(theta_l, k, theta_0):
     return -k * (theta_l - theta_0)
 
 
-def _stiffness_scale(plant):
+def _stiffness_scale(plant, values):
     # a spring that takes a tenth of the output torque over a radian
     return 0.1 * plant.typical_torque * plant.gear.ratio
 
@@ -31,7 +31,8 @@ class LoadSpring(Effect):
     acts_on = "load torque"
     params = (
         Param("stiffness", "N m/rad", 0.0, 1e12, _stiffness_scale, "spring rate at the output shaft"),
-        Param("rest_angle_deg", "deg", -1e6, 1e6, 10.0, "output angle where the spring is relaxed"),
+        Param("rest_angle_deg", "deg", -1e6, 1e6, 10.0, "output angle where the spring is relaxed",
+              start=0.0),
     )
 
     def pack(self, values, p, plant):

@@ -9,16 +9,25 @@ compliance between the motor and the load (EMPS: between motor and carriage).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 from ..components import Shaft
 from .base import Effect, Param, register
 
 
-def _stiffness_scale(plant):
+def _stiffness_scale(plant, values):
     # a shaft mode near 600 Hz on the rotor (the thesis's figure)
-    import math
     return plant.motor_inertia_total * (2 * math.pi * 600.0) ** 2
+
+
+def _damping_scale(plant, values):
+    # damping ratio ~0.05 on the rotor
+    return 0.1 * math.sqrt(_stiffness_scale(plant, values) * plant.motor_inertia_total)
+
+
+def _pinion_scale(plant, values):
+    return 0.3 * plant.motor_inertia_total
 
 
 @register
@@ -28,11 +37,13 @@ class ShaftCompliance(Effect):
     acts_on = "plant structure"
     params = (
         Param("stiffness", "N m/rad", 1e-12, 1e15, _stiffness_scale, "torsional stiffness"),
-        Param("damping", "N m s/rad", 0.0, 1e12, lambda pl: 0.02 * _stiffness_scale(pl) ** 0.5
-              * pl.motor_inertia_total ** 0.5, "torsional damping"),
-        Param("pinion_inertia", "kg m^2", 0.0, 1e6, lambda pl: 0.3 * pl.motor_inertia_total,
+        Param("damping", "N m s/rad", 0.0, 1e12, _damping_scale, "torsional damping"),
+        Param("pinion_inertia", "kg m^2", 0.0, 1e6, _pinion_scale,
               "inertia beyond the spring, taken out of the motor's"),
     )
+
+    def applicable(self, plant, signals):
+        return plant.shaft is None
 
     def apply(self, values, plant):
         if plant.shaft is not None:

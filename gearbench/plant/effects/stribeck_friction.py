@@ -2,7 +2,8 @@
 
     T_f = -(T_c + (T_s - T_c) exp(-|w| / w_s)) sign(w)
 
-``static_torque`` T_s (N m) >= ``coulomb_torque`` T_c (N m), ``stribeck_speed``
+``static_torque`` T_s (N m) >= ``coulomb_torque`` T_c (N m; a T_s below T_c
+acts as T_c), ``stribeck_speed``
 w_s (rad/s); at the carriage: ``static_force``, ``coulomb_force`` (N) and
 ``stribeck_speed_m_s`` (m/s).  It sticks below T_s.  The sign is regularised
 as in ``coulomb_friction``.
@@ -21,7 +22,8 @@ def torque(w, eps, t_s, t_c, w_s):
     """Friction torque on the body turning at ``w`` (rad/s), N m."""
     if w_s <= 0.0:
         return 0.0
-    return -(t_c + (t_s - t_c) * math.exp(-abs(w) / w_s)) * math.tanh(w / eps)
+    # a breakaway below the sliding level is not Stribeck's curve: it adds nothing
+    return -(t_c + max(t_s - t_c, 0.0) * math.exp(-abs(w) / w_s)) * math.tanh(w / eps)
 
 
 def _breakaway_scale(plant, values):

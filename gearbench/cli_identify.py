@@ -1,0 +1,287 @@
+"""``gearbench compare``, ``diagnose`` and ``fit``: the model against a measurement."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import click
+from rich.console import Console
+from rich.table import Table
+
+console = Console(stderr=True)
+
+_common = [
+    click.argument("plant_file", metavar="PLANT.yaml", type=click.Path(exists=True, dir_okay=False, path_type=Path)),
+    click.argument("data_file", metavar="DATA.csv", type=click.Path(exists=True, dir_okay=False, path_type=Path)),
+    click.option("--controller", "controller_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+                 help="Replay the record in closed loop with this controller (a controller file, e.g. "
+                      "experiments/controllers/emps.yaml) driven by the record's set point, comparing the "
+                      "simulated and measured input too.  Default: open loop, driven by the measured input."),
+    click.option("--window", "window_s", type=float, default=1.0, show_default=True,
+                 help="Open loop: re-initialise the model's angles from the record every WINDOW s (at the "
+                      "slowest sample near each boundary), so an integrating plant does not drift; 0 = never."),
+    click.option("--rtol", type=float, default=1e-6, show_default=True, help="Solver relative tolerance."),
+]
+
+
+def common(f):
+    for deco in reversed(_common):
+        f = deco(f)
+    return f
+
+
+def _fail(exc: Exception) -> None:
+    from .cli import _fail as fail
+    fail(exc)
+
+
+def _setup(plant_file, data_file, controller_file, window_s, rtol):
+    """Plant, record and replay, every file checked before any solving."""
+    from .experiment.controller_file import load_controller
+    from .experiment.files import load_plant
+    from .identify.replay import Replay
+    from .measure.data import read_measurement
+    from .simulate import SolverOptions
+    plant = load_plant(plant_file)
+    data = read_measurement(data_file)
+    controller = load_controller(controller_file) if controller_file else None
+    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3))
+    replay.check(plant)
+    return plant, data, replay
+
+
+def _errors():
+    from .experiment.files import ConfigError
+    from .identify.fit import FitError
+    from .identify.replay import ReplayError
+    from .measure.data import MeasurementError
+    return (ConfigError, MeasurementError, ReplayError, FitError, ValueError)
+
+
+def _out_dir(results: Path, kind: str, data_file: Path) -> Path:
+    return results / f"{kind}_{data_file.stem}"
+
+
+@click.command()
+@common
+@click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
+              show_default=True, help="Folder; figures and tables go to RESULTS/compare_<DATA>/.")
+@click.option("--json", "as_json", is_flag=True, help="Print the figures as one JSON object on stdout.")
+def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json):
+    """Drive the model as the record was driven and show where it fails.
+
+    For each measured signal: RMS and maximum error in its unit, the noise
+    floor estimated from the record, their ratio.  Where: the record cut into
+    phases (standstill, steady motion, direction reversal, acceleration) with
+    the share of the error each carries.  Figures: measured vs simulated with
+    the residual under it and the phases shaded, one per signal; the residual
+    against speed, position and direction.
+    """
+    from .identify.compare import comparison
+    from .report.compare import comparison_figure, residual_figure
+    from .report.io import save_figure_atomic, write_text_atomic
+    try:
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
+        c = comparison(replay, plant)
+    except _errors() as exc:
+        _fail(exc)
+    out = _out_dir(results, "compare", data_file)
+    t = replay.t
+    figures = []
+    for row in c["signals"]:
+        name = row["signal"]
+        fig = comparison_figure(t, replay.measured(name), c["sim"][name], c.get("labels"), name, row["unit"],
+                                title=f"{plant.name} vs {data_file.name}")
+        figures.append(save_figure_atomic(fig, out / f"{name}.png"))
+    if "labels" in c:
+        p = c["primary"]
+        unit = next(r["unit"] for r in c["signals"] if r["signal"] == p)
+        from .identify.signals import per_rad
+        out_name, pos_unit = ("load_position_mm", "mm") if plant.leadscrew else ("load_angle_deg", "deg")
+        k = per_rad(out_name, plant)
+        fig = residual_figure(c["residuals"][p], k * c["speed"], k * c["position"], p, unit,
+                              f"{pos_unit}/s at the output", f"{pos_unit} at the output")
+        figures.append(save_figure_atomic(fig, out / f"{p}_residual_vs_motion.png"))
+    summary = {"plant": plant.name, "data": str(data_file), "closed_loop": replay.closed_loop,
+               "signals": c["signals"], "primary": c["primary"], "phases": c.get("phases", {}),
+               "figures": [str(f) for f in figures]}
+    md = [f"# {plant.name} against {data_file.name}", "",
+          "| signal | unit | RMS error | max error | noise floor | RMS/noise | relative % |", "|---|---|---|---|---|---|---|"]
+    md += [f"| {r['signal']} | {r['unit']} | {r['rms_error']:.4g} | {r['max_error']:.4g} | {r['noise_floor']:.3g} | "
+           f"{r['ratio_to_noise']:.3g} | {r['relative_error_pct']:.3g} |" for r in c["signals"]]
+    if c.get("phases"):
+        md += ["", f"Where the {c['primary']} error sits:", "", "| phase | time share | error share | RMS |",
+               "|---|---|---|---|"]
+        md += [f"| {k} | {v['time_share']:.1%} | {v['error_share']:.1%} | {v['rms']:.4g} |"
+               for k, v in c["phases"].items()]
+    md += [""] + [f"![{f.name}]({f.name})" for f in figures]
+    write_text_atomic(out / "compare.md", "\n".join(md) + "\n")
+    write_text_atomic(out / "compare.json", json.dumps(summary, indent=1) + "\n")
+    if as_json:
+        click.echo(json.dumps(summary, indent=1))
+        return
+    tab = Table(title=f"{plant.name} against {data_file.name} ({'closed' if replay.closed_loop else 'open'} loop)")
+    for col in ("signal", "RMS error", "max error", "noise floor", "RMS/noise", "relative %"):
+        tab.add_column(col, justify="right" if col != "signal" else "left")
+    for r in c["signals"]:
+        tab.add_row(r["signal"], f"{r['rms_error']:.4g} {r['unit']}", f"{r['max_error']:.4g} {r['unit']}",
+                    f"{r['noise_floor']:.3g} {r['unit']}", f"{r['ratio_to_noise']:.3g}", f"{r['relative_error_pct']:.3g}")
+    Console().print(tab)
+    if c.get("phases"):
+        tp = Table(title=f"where the {c['primary']} error sits")
+        for col in ("phase", "time share", "error share", "RMS"):
+            tp.add_column(col)
+        for k, v in c["phases"].items():
+            tp.add_row(k, f"{v['time_share']:.1%}", f"{v['error_share']:.1%}", f"{v['rms']:.4g}")
+        Console().print(tp)
+    console.print(f"figures and tables in {out}/")
+
+
+@click.command()
+@common
+@click.option("--free", "free", multiple=True, metavar="KEY",
+              help="A plant parameter refitted with every candidate and in the baseline (e.g. leadscrew.mass).")
+@click.option("--only", "only", default="", metavar="NAME,NAME",
+              help="Try only these effects (a model structure), comma-separated.")
+@click.option("--max-steps", type=int, default=4, show_default=True, help="Longest ladder.")
+@click.option("--workers", type=int, default=None, help="Processes (default: all cores).")
+@click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
+              show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<DATA>/.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first), "
+                   "verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
+                   "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
+                   "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
+                   "(e.g. the drive force) in closed loop.")
+def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, max_steps, workers, results,
+             as_json):
+    """Which physical effect is the model missing?
+
+    Fits every effect of the library that the plant lacks, in every place it
+    can act, ranks them by the Bayesian information criterion (which charges
+    for each added parameter, so an effect that does not help never wins),
+    explains the evidence in words, and climbs the ladder: add the best,
+    refit, diagnose again, until nothing more pays.  The verdict is null when
+    the model already explains the record down to its noise, or when no
+    candidate explains the residual.
+    """
+    from rich.progress import Progress
+
+    from .identify.diagnose import candidates, diagnose as run_diagnosis
+    from .report.compare import ladder_figure
+    from .report.io import save_figure_atomic, write_text_atomic
+    try:
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
+        names = tuple(n.strip() for n in only.split(",") if n.strip())
+        n_cand = len(candidates(plant, replay, names))
+        with Progress(console=console, transient=True, disable=as_json) as bar:
+            task = bar.add_task("fitting candidates (ladder step 1)", total=n_cand)
+            d = run_diagnosis(plant, replay, tuple(free), max_steps, workers,
+                              progress=lambda t: bar.advance(task), only=names)
+    except _errors() as exc:
+        _fail(exc)
+    j = d.to_json()
+    out = _out_dir(results, "diagnose", data_file)
+    steps = [{"effect": "baseline", "error": d.baseline_error}] + [{"effect": s.effect, "error": s.error}
+                                                                  for s in d.ladder]
+    fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}")
+    save_figure_atomic(fig, out / "ladder.png")
+    write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
+    md = [f"# diagnose {plant.name} against {data_file.name}", "",
+          f"Error: {j['error_metric']}. Baseline {d.baseline_error:.4g} {d.unit}, noise floor {d.noise_floor:.4g} {d.unit}.",
+          "", f"Verdict: **{d.verdict}**" if d.verdict else f"Verdict: none. {d.reason}.", "",
+          "| step | effect | parameters | error |", "|---|---|---|---|",
+          f"| 0 | (baseline) | | {d.baseline_error:.4g} {d.unit} |"]
+    md += [f"| {i} | {s.effect} {s.options or ''} | " + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items())
+           + f" | {s.error:.4g} {d.unit} |" for i, s in enumerate(d.ladder, 1)]
+    md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
+    write_text_atomic(out / "diagnose.md", "\n".join(md) + "\n")
+    if as_json:
+        click.echo(json.dumps(j, indent=1))
+        return
+    tab = Table(title=f"candidates for {plant.name} against {data_file.name} (best first)")
+    for col in ("effect", "parameters", f"error ({d.unit})", "BIC"):
+        tab.add_column(col)
+    for t in d.tried:
+        pars = ", ".join(f"{k} = {v:.4g}" for k, v in t.params.items())
+        tab.add_row(t.candidate.label(), pars if t.ok else t.note[:60],
+                    f"{t.result.error:.4g}" if t.ok else "—", f"{t.result.bic:.6g}" if t.ok else "—")
+    Console().print(tab)
+    lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
+    for col in ("step", "effect", "parameters", "error"):
+        lad.add_column(col)
+    lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
+    for i, s in enumerate(d.ladder, 1):
+        lad.add_row(str(i), s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
+                    ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
+    Console().print(lad)
+    Console().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
+    if d.verdict:
+        Console().print(f"[bold]verdict: {d.verdict}[/]")
+        for i, s in enumerate(d.ladder, 1):
+            Console().print(f"{i}. {s.explanation}")
+    else:
+        Console().print(f"[bold]verdict: none[/] — {d.reason}")
+    if d.ladder:
+        Console().print(f"stopped: {d.reason}")
+    console.print(f"figures and tables in {out}/")
+
+
+@click.command()
+@common
+@click.option("--effect", "effect_spec", required=True, metavar="'NAME [key=value ...]'",
+              help="The effect to add, with its options (location=..., signal=...) and optional starting values; "
+                   "without a location every allowed place is tried and the best kept.")
+@click.option("--free", "free", multiple=True, metavar="KEY", help="A plant parameter fitted too (e.g. load.inertia).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The new plant file (written only if the fit converges).")
+def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, output):
+    """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
+
+    The new plant file holds the fitted values with their standard errors as
+    comments.  A fit that does not converge says so, writes nothing and exits 1.
+    """
+    from .cli_synth import parse_effect
+    from .identify.diagnose import Candidate, candidates, try_candidate
+    from .identify.fit import Scorer
+    from .experiment.writer import plant_to_yaml
+    from .plant.effects import REGISTRY
+    from .report.io import write_text_atomic
+    try:
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
+        item = parse_effect(effect_spec)
+        name = item.pop("type")
+        if name not in REGISTRY:
+            raise ValueError(f"--effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
+        eff = REGISTRY[name]
+        opts = {k: v for k, v in item.items() if k in eff.options}
+        places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in opts.items())]
+        if not places:
+            raise ValueError(f"--effect {name}: it cannot be added here (already in the plant, not applicable "
+                             f"to it, or options {opts} not allowed)")
+        scorer = Scorer(replay)
+        with console.status(f"fitting {name} in {len(places)} place(s)"):
+            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free)) for c in places]
+    except _errors() as exc:
+        _fail(exc)
+    ok = [t for t in tried if t.ok]
+    if not ok:
+        notes = "; ".join(f"{t.candidate.label()}: {t.note}" for t in tried)
+        console.print(f"[bold red]the fit did not converge[/]: {notes}. The plant is unchanged; nothing written.")
+        sys.exit(1)
+    best = min(ok, key=lambda t: t.result.bic)
+    res = best.result
+    base_err = Scorer(replay).error(replay.run(plant))
+    header = (f"{plant.name} + {best.candidate.label()}, fitted by gearbench fit to {data_file.name}\n"
+              f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}")
+    write_text_atomic(output, plant_to_yaml(res.plant, res.stderr, header))
+    tab = Table(title=f"{best.candidate.label()} fitted to {data_file.name}")
+    for col in ("parameter", "value", "standard error"):
+        tab.add_column(col)
+    for k, v in res.values.items():
+        se = res.stderr.get(k, math.nan)
+        tab.add_row(k, f"{v:.6g}", f"{se:.3g}")
+    Console().print(tab)
+    Console().print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}")

@@ -1,0 +1,35 @@
+"""How far a model is from a record, per signal, and where in the record it fails."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..measure.noise import noise_floor
+from ..measure.phases import classify_phases, error_shares, smoothed_speed
+from .fit import primary_signal
+from .replay import Replay
+
+
+def comparison(replay: Replay, plant, sim: dict | None = None) -> dict:
+    """Per compared column: RMS and maximum error (its unit), noise floor, their
+    ratio, relative error (%); the record cut into phases with each phase's
+    share of the primary column's squared error; the arrays for figures."""
+    sim = sim if sim is not None else replay.run(plant)
+    res = replay.residuals(sim)
+    rows = []
+    for name, r in res.items():
+        y = replay.measured(name)
+        nf = noise_floor(y)
+        unit = replay.data.signal_unit(name) if name in replay.data.signals else replay.data.input_unit
+        rms = float(np.sqrt(np.mean(r ** 2)))
+        rows.append({"signal": name, "unit": unit, "rms_error": rms, "max_error": float(np.max(np.abs(r))),
+                     "noise_floor": nf, "ratio_to_noise": rms / nf if nf > 0 else float("inf"),
+                     "relative_error_pct": float(100 * np.linalg.norm(r) / max(np.linalg.norm(y), 1e-300))})
+    primary = primary_signal(replay)
+    name, th = replay._motion(plant)
+    out = {"signals": rows, "primary": primary, "sim": sim, "residuals": res}
+    if th is not None:
+        v, sigma_v, _ = smoothed_speed(replay.t, th)
+        labels = classify_phases(replay.t, th, v)
+        out.update(labels=labels, speed=v, position=th, position_signal=name,
+                   phases={k: {**d} for k, d in error_shares(labels, res[primary]).items()})
+    return out

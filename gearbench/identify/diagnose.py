@@ -1,0 +1,309 @@
+"""Which physical effect is missing?  Try each, fit it, rank, and climb the ladder.
+
+For every effect of the registry that the plant does not have and that can
+act on it (``Effect.applicable``), in every place it can act (``location``,
+``signal``), fit its parameters (with any free plant parameters) and score
+the fit by the Bayesian information criterion of the noise-weighted
+residuals, ``BIC = n ln(RSS/n) + k ln n``, which charges ``ln n`` per added
+parameter: an effect that does not explain more than noise would never wins.
+The best one is the verdict when it lowers the BIC by more than
+``MIN_BIC_DROP`` (10: "very strong" evidence, Kass & Raftery 1995) and the
+error by more than ``MIN_ERROR_DROP``; ``None`` when the model already sits
+at the noise floor, or when no candidate explains the residual.
+
+The ladder repeats: add the verdict with its fitted parameters, diagnose
+again, until nothing more pays.
+"""
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+import multiprocessing as mp
+
+import numpy as np
+
+from ..plant.components import Plant
+from ..plant.effects import REGISTRY, AddedEffect
+from .evidence import explain
+from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, set_values
+from .replay import Replay, ReplayError
+
+MIN_BIC_DROP = 10.0
+MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
+AT_NOISE = 1.2             # an error within 1.2x the noise floor is explained
+GRID = (0.03, 0.1, 0.3, 1.0, 3.0)  # multiples of a parameter's typical value tried before fitting
+
+
+@dataclass
+class Candidate:
+    """An effect to try: its name and its fixed options (location, signal)."""
+    name: str
+    options: dict
+
+    def label(self) -> str:
+        opts = ", ".join(f"{v}" for v in self.options.values())
+        return f"{self.name} ({opts})" if opts else self.name
+
+
+@dataclass
+class Tried:
+    """A candidate after fitting."""
+    candidate: Candidate
+    result: FitResult | None
+    params: dict = field(default_factory=dict)
+    stderr: dict = field(default_factory=dict)
+    note: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.result is not None and self.result.converged and math.isfinite(self.result.error)
+
+
+def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list[Candidate]:
+    """Every effect (of ``only``, if given), in every place, that the plant lacks
+    and that could act on this record.
+
+    On a rigid train (no clearance, no shaft) the motor and the load are one
+    body, so friction there is tried once, at the load (the carriage).  In a
+    closed-loop replay the compared column is the controller's output, which a
+    sensor effect applied after the fact cannot change: those are left out.
+    """
+    have = {(e.name, tuple(sorted((k, v) for k, v in e.values.items() if isinstance(v, str))))
+            for e in plant.effects}
+    signals = list(replay.data.signals)
+    resolved = plant.resolved()
+    one_body = resolved.gear.rigid and resolved.shaft is None
+    out = []
+    for name, eff in REGISTRY.items():
+        if only and name not in only:
+            continue
+        if not eff.applicable(resolved, signals):
+            continue
+        if replay.closed_loop and eff.acts_on == "measured signal":
+            continue
+        choices = [{}]
+        for opt, allowed in eff.options.items():
+            if opt == "location":
+                places = [a for a in allowed if a != "carriage"] if plant.leadscrew is None else (
+                    [a for a in allowed if a != "load"])
+                if one_body:
+                    places = [a for a in places if a != "motor"]
+            else:
+                places = [a for a in allowed if a in signals]
+            choices = [dict(c, **{opt: a}) for c in choices for a in places]
+        for c in choices:
+            if (name, tuple(sorted(c.items()))) in have or any(e.name == name and not e.effect.options
+                                                               for e in plant.effects):
+                continue
+            out.append(Candidate(name, c))
+    return out
+
+
+def _start_values(plant: Plant, cand: Candidate) -> dict:
+    """The candidate's options and each required parameter at its typical value."""
+    from ..plant.effects.location import key as file_key
+    eff = REGISTRY[cand.name]
+    values = dict(cand.options)
+    for q in eff.params:
+        if not q.optional:
+            k = file_key(values, q.name) if "location" in eff.options else q.name
+            values[k] = q.start if q.start is not None else q.typical(plant, values)
+    return values
+
+
+def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
+                  free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Tried:
+    """Fit one candidate (its parameters, the free plant parameters and those
+    of the plant's effects numbered in ``refit``, jointly) to the record.
+
+    Parameters the data give directly (``Effect.estimate``: encoder counts) are
+    read, the rest fitted: a scan of the first one over ``GRID`` times its
+    typical value picks the basin, bounded least squares does the rest.
+    """
+    eff = REGISTRY[cand.name]
+    values = _start_values(plant, cand)
+    try:
+        est = eff.estimate(values, replay.data.signals, plant)
+        values.update(est or {})
+        with_it = plant.with_effects(AddedEffect(cand.name, values))
+        frees = Free.effect(with_it, len(with_it.effects) - 1) + [Free.plant(with_it, p) for p in free_plant]
+        for i in refit:
+            frees += Free.effect(with_it, i)
+        if not frees:
+            if est is None:
+                return Tried(cand, None, note="nothing to fit and nothing read from the data")
+            res = evaluate(replay, scorer, with_it, k=len(est))
+        else:
+            first, costs = frees[0], {}
+            for g in GRID:
+                v = first.scale * g
+                try:
+                    r = scorer.weighted(replay.run(set_values(with_it, [first], [v])))
+                    costs[v] = float(r @ r)
+                except (ReplayError, ValueError):
+                    continue
+            start = None
+            if costs:
+                start = [min(costs, key=costs.get)] + [get_value(with_it, f) for f in frees[1:]]
+            res = fit(replay, with_it, frees, scorer, start=start)
+            res.k += len(est or {})
+    except (ReplayError, ValueError) as exc:
+        return Tried(cand, None, note=f"could not be simulated: {exc}")
+    if not res.converged:
+        return Tried(cand, res, note=res.message)
+    last = len(res.plant.effects) - 1
+    params = {k: v for k, v in res.plant.effects[last].values.items() if not isinstance(v, str)}
+    stderr = {k.split(".", 1)[1]: v for k, v in res.stderr.items() if k.startswith(f"effects[{last}].")}
+    return Tried(cand, res, params, stderr)
+
+
+def _run_candidate(args):
+    return try_candidate(*args)
+
+
+@dataclass
+class Step:
+    """One rung of the ladder: the effect added, its parameters, the error after
+    it, and the whole refitted model at that point (``model``: effects as in a
+    plant file, ``plant_params``: the free plant parameters)."""
+    effect: str
+    options: dict
+    params: dict
+    stderr: dict
+    error: float
+    relative_error_pct: float
+    bic: float
+    model: list
+    plant_params: dict
+    explanation: str = ""
+
+
+@dataclass
+class Diagnosis:
+    baseline_error: float
+    noise_floor: float
+    unit: str
+    signal: str
+    tried: list[Tried]
+    verdict: str | None
+    ladder: list[Step]
+    reason: str
+    plant: Plant
+    baseline: FitResult
+    baseline_plant: Plant
+    baseline_relative_pct: float
+    free_plant: tuple = ()
+
+    def to_json(self) -> dict:
+        """The SPEC's ``diagnose --json`` object (plus units and explanations)."""
+        def cand(t: Tried) -> dict:
+            d = {"effect": t.candidate.name, **({"options": t.candidate.options} if t.candidate.options else {}),
+                 "params": t.params, "error": t.result.error if t.ok else None}
+            if t.ok:
+                d.update(stderr=t.stderr, bic=t.result.bic, k=t.result.k)
+            if t.note:
+                d["note"] = t.note
+            return d
+        return {
+            "baseline_error": self.baseline_error,
+            "noise_floor": self.noise_floor,
+            "error_signal": self.signal,
+            "error_unit": self.unit,
+            "error_metric": f"RMS of the {self.signal} residual (measured - simulated), {self.unit}",
+            "candidates": [cand(t) for t in self.tried],
+            "verdict": self.verdict,
+            "reason": self.reason,
+            "baseline_relative_error_pct": self.baseline_relative_pct,
+            "ladder": [{"effect": s.effect, **({"options": s.options} if s.options else {}),
+                        "params": s.params, "stderr": s.stderr, "error": s.error,
+                        "relative_error_pct": s.relative_error_pct, "model": s.model,
+                        "plant_params": s.plant_params, "explanation": s.explanation}
+                       for s in self.ladder],
+        }
+
+
+def _rank(tried: list[Tried]) -> list[Tried]:
+    return sorted(tried, key=lambda t: (not t.ok, t.result.bic if t.ok else math.inf))
+
+
+def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
+    jobs = [(replay, scorer, plant, c, free_plant, refit) for c in cands]
+    if workers and workers > 1 and len(jobs) > 1:
+        ctx = mp.get_context("fork")
+        with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+            out = []
+            for t in pool.map(_run_candidate, jobs):
+                out.append(t)
+                if progress:
+                    progress(t)
+            return out
+    out = []
+    for j in jobs:
+        out.append(_run_candidate(j))
+        if progress:
+            progress(out[-1])
+    return out
+
+
+def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
+             workers: int | None = None, progress=None, only: tuple[str, ...] = ()) -> Diagnosis:
+    """Diagnose ``plant`` against the replayed record and climb the ladder.
+
+    free_plant: plant parameters refitted with every candidate (and in the
+    baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
+    cores); only: restrict the candidates to these effect names (a model structure).
+    """
+    unknown = [n for n in only if n not in REGISTRY]
+    if unknown:
+        raise ValueError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(REGISTRY)}")
+    workers = workers if workers is not None else (os.cpu_count() or 1)
+    scorer = Scorer(replay)
+    frees = [Free.plant(plant, p) for p in free_plant]
+    base = fit(replay, plant, frees, scorer) if frees else evaluate(replay, scorer, plant)
+    if not base.converged:
+        raise ReplayError(f"the baseline fit of {', '.join(free_plant)} did not converge: {base.message}")
+    unit = replay.data.signal_unit(scorer.primary) if scorer.primary in replay.data.signals else \
+        replay.data.input_unit
+    current, current_res = base.plant, base
+    ladder: list[Step] = []
+    first_tried: list[Tried] = []
+    reason = ""
+    for step in range(max_steps):
+        if current_res.error <= AT_NOISE * scorer.noise_floor:
+            reason = (f"the model explains the record down to its noise: error {current_res.error:.4g} {unit} "
+                      f"against a noise floor of {scorer.noise_floor:.4g} {unit}")
+            break
+        # the effects added so far are refitted with each candidate: the first
+        # rung's friction must give back what a later viscous term explains
+        refit = tuple(range(len(plant.effects), len(current.effects)))
+        tried = _rank(_fit_all(replay, scorer, current, candidates(current, replay, only), free_plant,
+                               refit, workers, progress))
+        if step == 0:
+            first_tried = tried
+        best = tried[0] if tried and tried[0].ok else None
+        if best is None or not (current_res.bic - best.result.bic > MIN_BIC_DROP
+                                and best.result.error < (1 - MIN_ERROR_DROP) * current_res.error):
+            if best is None:
+                gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
+            else:
+                gain = (f"the best, {best.candidate.label()}, would lower the error only to "
+                        f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - current_res.bic:+.1f}; "
+                        f"an added effect must lower it by more than {MIN_BIC_DROP:g})")
+            reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
+                      f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
+                      f"{unit}) and {gain}; the missing physics is not in the library" if step == 0 else
+                      f"after {len(ladder)} step(s) nothing more pays: {gain}")
+            break
+        text = explain(replay, scorer, current_res, best)
+        fitted = best.result
+        ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
+                           fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
+                           [e.to_dict() for e in fitted.plant.effects],
+                           {p: get_value(fitted.plant, Free.plant(fitted.plant, p)) for p in free_plant},
+                           text))
+        current, current_res = best.result.plant, best.result
+    verdict = ladder[0].effect if ladder else None
+    return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
+                     reason, current, base, base.plant, scorer.relative_pct(base.sim), tuple(free_plant))

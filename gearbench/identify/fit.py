@@ -1,0 +1,243 @@
+"""Fit named parameters of a plant and its effects to a record (bounded least squares).
+
+Free parameters are an effect's (``Free.effect(plant, i, key)``) or a plant
+field's (``Free.plant(plant, "leadscrew.mass")``), each with bounds and a
+typical scale, the way lmfit names them.  The objective is the simulation
+error of a :class:`~gearbench.identify.replay.Replay`: every compared column's
+residual divided by that column's noise floor, so signals in different units
+weigh by how well they are measured.  ``scipy.optimize.least_squares`` (trust
+region reflective) works on the parameters divided by their scales; standard
+errors come from its Jacobian, ``cov = s^2 (J^T J)^-1`` with
+``s^2 = RSS / (n - k)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..measure.noise import noise_floor
+from ..plant.components import Plant
+from ..plant.effects import AddedEffect
+from .replay import Replay, ReplayError
+
+PLANT_FIELDS = {  # key path -> (unit, low bound)
+    "motor.inertia": ("kg m^2", 0.0), "motor.damping": ("N m s/rad", 0.0),
+    "motor.resistance": ("ohm", 0.0), "motor.inductance": ("H", 0.0),
+    "motor.torque_constant": ("N m/A", 0.0), "motor.back_emf_constant": ("V s/rad", 0.0),
+    "gear.backlash_deg": ("deg", 0.0), "gear.mesh_stiffness": ("N m/rad", 0.0),
+    "gear.mesh_damping": ("N m s/rad", 0.0), "load.inertia": ("kg m^2", 0.0),
+    "load.damping": ("N m s/rad", 0.0), "leadscrew.mass": ("kg", 0.0),
+    "leadscrew.damping": ("N s/m", 0.0),
+}
+
+
+class FitError(ValueError):
+    """A fit that cannot be set up (an unknown free key, a missing effect)."""
+
+
+@dataclass(frozen=True)
+class Free:
+    """One free parameter: ``key`` of effect number ``index`` of the plant, or
+    (``index`` None) a plant field path such as ``leadscrew.mass``."""
+    key: str
+    index: int | None
+    low: float
+    high: float
+    scale: float
+    unit: str
+
+    @property
+    def name(self) -> str:
+        return self.key if self.index is None else f"effects[{self.index}].{self.key}"
+
+    @staticmethod
+    def plant(plant: Plant, path: str) -> "Free":
+        if path not in PLANT_FIELDS:
+            raise FitError(f"--free {path}: not a plant parameter gearbench can fit; choose from "
+                           f"{', '.join(PLANT_FIELDS)}")
+        section, key = path.split(".")
+        comp = getattr(plant, section)
+        if comp is None:
+            raise FitError(f"--free {path}: the plant has no {section}")
+        v = float(getattr(comp, key))
+        unit, low = PLANT_FIELDS[path]
+        return Free(path, None, low, math.inf, abs(v) if v else 1.0, unit)
+
+    @staticmethod
+    def effect(plant: Plant, i: int) -> list["Free"]:
+        """The fit parameters of effect ``i`` (file keys: ``force`` at the carriage)."""
+        from ..plant.effects.location import key as file_key
+        e = plant.effects[i]
+        out = []
+        for q in e.effect.fit_params(e.values):
+            if q.integer:
+                continue
+            k = file_key(e.values, q.name) if "location" in e.effect.options else q.name
+            scale = q.typical(plant, e.values)
+            out.append(Free(k, i, q.low, q.high, scale, q.unit))
+        return out
+
+
+def get_value(plant: Plant, f: Free) -> float:
+    if f.index is None:
+        section, key = f.key.split(".")
+        return float(getattr(getattr(plant, section), key))
+    return float(plant.effects[f.index].values[f.key])
+
+
+def set_values(plant: Plant, frees: list[Free], values) -> Plant:
+    """``plant`` with the free parameters set to ``values`` (their units)."""
+    effects = list(plant.effects)
+    for f, v in zip(frees, values):
+        v = float(v)
+        if f.index is None:
+            section, key = f.key.split(".")
+            plant = replace(plant, **{section: replace(getattr(plant, section), **{key: v})})
+        else:
+            e = effects[f.index]
+            effects[f.index] = AddedEffect(e.name, {**e.values, f.key: v})
+    return replace(plant, effects=tuple(effects))
+
+
+def primary_signal(replay: Replay) -> str:
+    """The column errors are reported in: the input in closed loop (EMPS: the
+    force), else the output angle or position, else the motor's, else the current."""
+    if replay.closed_loop:
+        return replay.data.input_name
+    for name in ("load_angle_deg", "load_position_mm", "motor_angle_deg", "motor_position_mm", "current_A"):
+        if name in replay.data.signals:
+            return name
+    return next(iter(replay.data.signals))
+
+
+def objective_signals(replay: Replay) -> list[str]:
+    """Columns the fit weighs: all measured signals in open loop; in closed loop the
+    input (the controller rejects the physics from the position: Gautier et al.)."""
+    return [replay.data.input_name] if replay.closed_loop else list(replay.data.signals)
+
+
+@dataclass
+class Scorer:
+    """Error measures of one replay: per-column noise floors, weights and the primary column."""
+    replay: Replay
+    floors: dict = field(init=False)
+    primary: str = field(init=False)
+
+    def __post_init__(self):
+        self.primary = primary_signal(self.replay)
+        names = set(objective_signals(self.replay)) | {self.primary}
+        self.floors = {}
+        for n in names:
+            y = self.replay.measured(n)
+            nf = noise_floor(y)
+            # a noiseless (simulated, unquantised) column still needs a finite weight
+            self.floors[n] = max(nf, 1e-6 * float(np.sqrt(np.mean(y ** 2))) + 1e-12)
+
+    def weighted(self, sim: dict) -> np.ndarray:
+        res = self.replay.residuals(sim)
+        return np.concatenate([res[n] / self.floors[n] for n in objective_signals(self.replay)])
+
+    def error(self, sim: dict) -> float:
+        """RMS of the primary column's residual, in its unit."""
+        r = self.replay.residuals(sim)[self.primary]
+        return float(np.sqrt(np.mean(r ** 2)))
+
+    def relative_pct(self, sim: dict) -> float:
+        """``100 ||y - y_hat|| / ||y||`` of the primary column (the EMPS paper's measure), %."""
+        y = self.replay.measured(self.primary)
+        return float(100.0 * np.linalg.norm(y - sim[self.primary]) / np.linalg.norm(y))
+
+    @property
+    def noise_floor(self) -> float:
+        return self.floors[self.primary]
+
+
+@dataclass
+class FitResult:
+    """A fitted plant: values and standard errors by parameter name, errors, convergence."""
+    plant: Plant
+    values: dict
+    stderr: dict
+    error: float
+    rss: float
+    n: int
+    k: int
+    converged: bool
+    message: str
+    nfev: int
+    sim: dict | None = None
+
+    @property
+    def bic(self) -> float:
+        """Bayesian information criterion of the weighted residuals, ``n ln(RSS/n) + k ln n``."""
+        return self.n * math.log(max(self.rss, 1e-300) / self.n) + self.k * math.log(self.n)
+
+
+def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0) -> FitResult:
+    """Score a plant as it is (no fitting)."""
+    sim = replay.run(plant)
+    w = scorer.weighted(sim)
+    return FitResult(plant, {}, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim)
+
+
+def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None = None,
+        max_nfev: int | None = None, start: list[float] | None = None) -> FitResult:
+    """Fit ``frees`` of ``plant`` to the replayed record.
+
+    A fit that does not converge comes back with ``converged`` False and the
+    plant as given (unchanged), and says why in ``message``.
+    """
+    scorer = scorer or Scorer(replay)
+    if not frees:
+        return evaluate(replay, scorer, plant)
+    x0 = np.array(start if start is not None else [get_value(plant, f) for f in frees], dtype=float)
+    sc = np.array([f.scale for f in frees])
+    lo = np.array([f.low for f in frees]) / sc
+    hi = np.array([f.high for f in frees]) / sc
+    z0 = np.clip(x0 / sc, lo, hi)
+    n_res = None
+    failures = []
+
+    def residual(z):
+        nonlocal n_res
+        try:
+            r = scorer.weighted(replay.run(set_values(plant, frees, z * sc)))
+            n_res = r.size
+            return r
+        except ReplayError as exc:
+            failures.append(str(exc))
+            # a solver failure is a very bad fit, not a crash of the fit
+            return np.full(n_res or 1, 1e6)
+
+    try:
+        res = least_squares(residual, z0, bounds=(lo, hi), x_scale=1.0, diff_step=1e-3,
+                            max_nfev=max_nfev or 40 * (len(frees) + 1), method="trf",
+                            ftol=1e-6, xtol=1e-6)
+    except ValueError as exc:
+        return FitResult(plant, {}, {}, math.nan, math.nan, 0, len(frees), False,
+                         f"the fit could not run: {exc}", 0)
+    fitted = set_values(plant, frees, res.x * sc)
+    try:
+        sim = replay.run(fitted)
+    except ReplayError as exc:
+        return FitResult(plant, {}, {}, math.nan, math.nan, 0, len(frees), False,
+                         f"the fitted plant does not simulate: {exc}", res.nfev)
+    w = scorer.weighted(sim)
+    rss, n, k = float(w @ w), w.size, len(frees)
+    stderr = {}
+    try:
+        cov = np.linalg.inv(res.jac.T @ res.jac) * rss / max(n - k, 1)
+        for f, s, c in zip(frees, sc, np.diag(cov)):
+            stderr[f.name] = float(math.sqrt(c) * s) if c >= 0 else math.nan
+    except np.linalg.LinAlgError:
+        stderr = {f.name: math.nan for f in frees}
+    converged = res.status > 0
+    msg = res.message if converged else f"did not converge: {res.message}"
+    if failures and converged:
+        msg += f" ({len(failures)} trial simulation(s) failed on the way)"
+    values = {f.name: float(v) for f, v in zip(frees, res.x * sc)}
+    return FitResult(fitted if converged else plant, values, stderr, scorer.error(sim), rss, n, k,
+                     converged, msg, res.nfev, sim)

@@ -1,0 +1,259 @@
+"""Synthetic measurements (``gearbench.identify.synth``, ``gearbench synth``).
+
+The bench rig (experiments/plants/bench_rig.yaml) with hidden effects plays the
+real rig; its records must read back as measurements, equal a plain open-loop
+simulation when nothing is hidden, and show each hidden effect as its physics says.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from gearbench.cli import main
+from gearbench.control.controllers import Controller
+from gearbench.experiment.files import load_plant
+from gearbench.identify import synth
+from gearbench.identify.replay import Replay
+from gearbench.measure.data import read_measurement, write_measurement
+from gearbench.plant.effects.base import AddedEffect
+from gearbench.simulate import Segments, SolverOptions, simulate
+
+ROOT = Path(__file__).resolve().parent.parent
+RIG = ROOT / "experiments" / "plants" / "bench_rig.yaml"
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return load_plant(RIG)
+
+
+@pytest.fixture(scope="module")
+def record(rig):
+    """3 s of steps: enough for both directions, small and large levels."""
+    return synth.excitation("steps", rig, duration_s=3.0, seed=0)
+
+
+def clean(plant):
+    return {s: 0.0 for s in synth.default_signals(plant)}
+
+
+def runs_of(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end) index ranges where ``mask`` is True."""
+    d = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+
+
+# ------------------------------------------------------------------ excitation
+
+def test_steps_have_both_directions_rests_and_small_and_large_levels(rig):
+    t, u = synth.excitation("steps", rig, seed=0)
+    vmax = rig.motor.max_voltage
+    assert t[0] == 0.0 and t[-1] == pytest.approx(10.0) and np.allclose(np.diff(t), 1e-3)
+    assert np.all(np.abs(u) <= vmax)
+    level = u / vmax
+    for sign in (1.0, -1.0):
+        on = level * sign
+        assert np.any((on > 0.05) & (on <= 0.2)), "a small level (<= 20 % of the limit) each way"
+        assert np.any(on >= 0.6), "a large level (>= 60 %) each way"
+    dt = t[1] - t[0]
+    rests = runs_of(u == 0.0)
+    holds = runs_of(u != 0.0)
+    assert rests[0][0] == 0, "the record opens at rest"
+    assert len(holds) >= 8
+    for a, b in rests[1:-1]:   # inner rests: the train comes to rest
+        assert 0.3 - 1e-9 <= (b - a) * dt <= 0.5 + dt
+    for a, b in holds[:-1]:     # each step held long enough to reach steady speed
+        assert 0.3 - 1e-9 <= (b - a) * dt <= 0.6 + dt
+        assert np.all(u[a:b] == u[a]), "a step is one level"
+    signs = [np.sign(u[a]) for a, _ in holds]
+    assert all(s1 != s2 for s1, s2 in zip(signs, signs[1:])), "successive steps reverse"
+
+
+def test_short_steps_record_still_holds_small_and_large_levels(rig):
+    for seed in range(5):
+        t, u = synth.excitation("steps", rig, duration_s=1.6, seed=seed)
+        mags = {round(abs(x) / rig.motor.max_voltage, 3) for x in u if x != 0.0}
+        assert min(mags) <= 0.2 and max(mags) >= 0.6
+
+
+def test_steps_depend_on_the_seed_only(rig):
+    a = synth.excitation("steps", rig, duration_s=3.0, seed=4)
+    b = synth.excitation("steps", rig, duration_s=3.0, seed=4)
+    c = synth.excitation("steps", rig, duration_s=3.0, seed=5)
+    assert np.array_equal(a[1], b[1]) and not np.array_equal(a[1], c[1])
+
+
+def test_profile_excitation_is_the_voltage_of_a_p_controller(rig):
+    t, u = synth.excitation("profile:1", rig, duration_s=4.0)
+    assert len(t) == 4001 and np.all(np.abs(u) <= rig.motor.max_voltage)
+    assert np.all(u[t < 1.99] == 0.0)          # profile 1 dwells at 0 for 2 s: no error, no voltage
+    assert np.max(np.abs(u[t > 2.0])) > 0.1    # then the step and the ramp ask for voltage
+
+
+def test_file_excitation_is_read_and_checked(rig, tmp_path):
+    f = tmp_path / "u.csv"
+    f.write_text("time_s,voltage_V\n0,0\n0.5,3\n1.0,-3\n1.5,0\n")
+    t, u = synth.excitation(str(f), rig)
+    assert np.array_equal(t, [0, 0.5, 1.0, 1.5]) and np.array_equal(u, [0, 3, -3, 0])
+    f.write_text("time_s,drive_torque_Nm\n0,0\n0.5,3\n")
+    with pytest.raises(ValueError, match="drive_torque_Nm"):
+        synth.excitation(str(f), rig)
+    f.write_text("time_s,voltage_V\n0,0\n0.5,x\n")
+    with pytest.raises(ValueError, match="'voltage_V'.*data row 2"):
+        synth.excitation(str(f), rig)
+
+
+# ------------------------------------------------------------------ synthesis
+
+def test_record_reads_back_as_a_measurement(rig, record, tmp_path):
+    m = synth.synthesize(rig, [], *record, seed=0)
+    assert m.input_name == "voltage_V"
+    assert list(m.signals) == ["motor_angle_deg", "load_angle_deg", "current_A"]
+    path = write_measurement(m, tmp_path / "d.csv")
+    back = read_measurement(path)
+    assert np.allclose(back.time_s, m.time_s) and np.allclose(back.input, m.input)
+    for k, v in m.signals.items():
+        assert np.allclose(back.signals[k], v, rtol=1e-9, atol=1e-9)
+
+
+def test_clean_record_equals_a_plain_open_loop_simulation(rig, record):
+    t, u = record
+    m = synth.synthesize(rig, [], t, u, noise=clean(rig))
+    assert np.array_equal(m.input, u)
+    run = simulate(rig, Controller("open"), Segments(t, u, np.zeros_like(u)), float(t[-1]),
+                   SolverOptions(rtol=1e-6, max_step_s=1e-3, output_dt_s=1e-3))
+    assert run.ok and len(run.time_s) == len(t)
+    deg = 180.0 / math.pi
+    assert np.allclose(m.signals["motor_angle_deg"], run.outputs[:, 2] * deg, rtol=0, atol=1e-6)
+    assert np.allclose(m.signals["load_angle_deg"], run.outputs[:, 1] * deg, rtol=0, atol=1e-6)
+    assert np.allclose(m.signals["current_A"], run.outputs[:, 4], rtol=0, atol=1e-9)
+    # and the identify pipeline's replay of the record reproduces it: its rtol is 1e-5, so
+    # impacts land a little differently; the current, which jumps at impacts, differs most
+    sim = Replay(m, window_s=None).run(rig)
+    for k, y in m.signals.items():
+        assert np.max(np.abs(sim[k] - y)) < 2e-3 * np.ptp(y), k
+        assert np.sqrt(np.mean((sim[k] - y) ** 2)) < 1e-4 * np.ptp(y), k
+
+
+def test_moves_and_rests(rig, record):
+    """The rig is well-behaved under steps: it moves, and is (nearly) still at the end of a rest."""
+    t, u = record
+    m = synth.synthesize(rig, [], t, u, noise=clean(rig))
+    th = m.signals["load_angle_deg"]
+    w = np.gradient(th, t)
+    assert np.ptp(th) > 90.0
+    ends = [b - 1 for a, b in runs_of(u == 0.0)[1:-1]]
+    assert ends and np.all(np.abs(w[ends]) < 0.02 * np.max(np.abs(w)))
+
+
+def test_hidden_bias_torque_changes_the_data(rig, record):
+    base = synth.synthesize(rig, [], *record, noise=clean(rig))
+    bias = synth.synthesize(rig, [AddedEffect("bias_torque", {"location": "load", "torque": 1.0})],
+                            *record, noise=clean(rig))
+    diff = bias.signals["load_angle_deg"] - base.signals["load_angle_deg"]
+    assert np.max(np.abs(diff)) > 5.0
+    assert np.array_equal(bias.input, base.input)
+
+
+def test_hidden_sensor_delay_shifts_the_signal_by_the_delay(rig, record):
+    base = synth.synthesize(rig, [], *record, noise=clean(rig))
+    late = synth.synthesize(rig, [AddedEffect("sensor_delay", {"signal": "load_angle_deg", "delay": 0.02})],
+                            *record, noise=clean(rig))
+    k = 20  # samples of 1 ms
+    y, yd = base.signals["load_angle_deg"], late.signals["load_angle_deg"]
+    assert np.allclose(yd[k:], y[:-k], atol=1e-9)
+    assert np.allclose(yd[:k], y[0])
+    assert np.array_equal(late.signals["motor_angle_deg"], base.signals["motor_angle_deg"])
+
+
+def test_hidden_encoder_quantization_puts_the_signal_on_its_grid(rig, record):
+    counts = 1000
+    m = synth.synthesize(rig, [AddedEffect("encoder_quantization",
+                                           {"signal": "motor_angle_deg", "counts_per_rev": counts})],
+                         *record, seed=3)
+    q = 360.0 / counts
+    y = m.signals["motor_angle_deg"]
+    assert np.allclose(y / q, np.round(y / q), atol=1e-6), "whole counts: no analog noise added"
+    assert len(np.unique(np.round(y / q))) > 100
+    noisy = m.signals["load_angle_deg"]
+    assert not np.allclose(noisy / q, np.round(noisy / q), atol=1e-6)  # the others carry noise
+
+
+def test_noise_has_the_asked_size_and_depends_on_the_seed(rig, record):
+    a = synth.synthesize(rig, [], *record, seed=7)
+    b = synth.synthesize(rig, [], *record, seed=7)
+    c = synth.synthesize(rig, [], *record, seed=8)
+    truth = synth.synthesize(rig, [], *record, noise=clean(rig))
+    for k in a.signals:
+        assert np.array_equal(a.signals[k], b.signals[k])
+        assert not np.array_equal(a.signals[k], c.signals[k])
+    e = a.signals["load_angle_deg"] - truth.signals["load_angle_deg"]
+    assert np.std(e) == pytest.approx(0.01, rel=0.05)
+    e = a.signals["current_A"] - truth.signals["current_A"]
+    assert np.std(e) == pytest.approx(0.005, rel=0.05)
+    big = synth.synthesize(rig, [], *record, noise={"load_angle_deg": 0.1}, seed=7)
+    assert np.std(big.signals["load_angle_deg"] - truth.signals["load_angle_deg"]) == pytest.approx(0.1, rel=0.05)
+
+
+def test_synthesize_rejects_what_the_plant_cannot_measure(rig, record):
+    with pytest.raises(synth.SynthError, match="load_position_mm"):
+        synth.synthesize(rig, [], *record, signals=("motor_angle_deg", "load_position_mm"))
+    with pytest.raises(synth.SynthError, match="sensor_delay acts on current_A"):
+        synth.synthesize(rig, [AddedEffect("sensor_delay", {"signal": "current_A", "delay": 0.01})],
+                         *record, signals=("motor_angle_deg",))
+
+
+def test_translational_defaults():
+    emps = load_plant(ROOT / "experiments" / "plants" / "emps_bare.yaml")
+    assert synth.default_signals(emps) == ("motor_angle_deg", "load_position_mm")
+    t, u = synth.excitation("steps", emps, duration_s=1.0)
+    m = synth.synthesize(emps, [], t, u)
+    assert m.input_name == "drive_force_N" and np.ptp(m.signals["load_position_mm"]) > 1.0
+
+
+# ------------------------------------------------------------------ command line
+
+def test_cli_writes_data_and_truth(tmp_path):
+    out = tmp_path / "d.csv"
+    args = ["synth", str(RIG), "--effect", "coulomb_friction location=load torque=0.5",
+            "--effect", "encoder_quantization signal=motor_angle_deg counts_per_rev=2000",
+            "--duration", "2", "--seed", "3", "-o", str(out)]
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    assert "wrote" in res.output and "coulomb_friction" in res.output
+    m = read_measurement(out)
+    assert m.duration_s == pytest.approx(2.0)
+    truth = yaml.safe_load((tmp_path / "d.truth.yaml").read_text())
+    assert truth["hidden_effects"] == [
+        {"type": "coulomb_friction", "location": "load", "torque": 0.5},
+        {"type": "encoder_quantization", "signal": "motor_angle_deg", "counts_per_rev": 2000}]
+    assert truth["seed"] == 3 and truth["excitation"]["kind"] == "steps"
+    assert truth["noise_std"]["motor_angle_deg"] == 0.0 and truth["noise_std"]["current_A"] == 0.005
+    assert truth["plant"] == str(RIG)
+    # same seed, same data
+    again = tmp_path / "e.csv"
+    assert CliRunner().invoke(main, args[:-1] + [str(again)]).exit_code == 0
+    assert out.read_text() == again.read_text()
+
+
+def test_cli_rejects_a_bad_effect_naming_the_key(tmp_path):
+    out = tmp_path / "d.csv"
+
+    def fails(*args):
+        res = CliRunner().invoke(main, ["synth", str(RIG), *args, "-o", str(out)])
+        assert res.exit_code == 2, res.output
+        return " ".join(res.output.split())  # rich wraps long lines
+
+    text = fails("--effect", "coulomb_friction location=load torqe=0.5")
+    assert text.startswith("error:") and "coulomb_friction.torqe" in text and "'torque'" in text
+    text = fails("--effect", "load_spring stiffness=-1 rest_angle_deg=0")
+    assert "load_spring.stiffness" in text and "N m/rad" in text
+    assert "key=value" in fails("--effect", "coulomb_friction torque")
+    assert "not a known effect" in fails("--effect", "stiction torque=1")
+    assert "--noise" in fails("--noise", "load_angle_deg=-1")
+    assert list(tmp_path.iterdir()) == [], "nothing is written when anything fails"
