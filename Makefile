@@ -1,5 +1,6 @@
 # gearbench: two commands set everything up on a fresh machine.
-#   make run   - create .venv, install, reproduce Table I and the gain scan into results/
+#   make run   - create .venv, install, reproduce Table I, the gain scans, the tutorial's
+#                diagnosis and the EMPS study into results/
 #   make test  - create .venv, install with test extras, run the test suite
 PYTHON ?= python3
 VENV := .venv
@@ -30,6 +31,9 @@ run: install
 		--at 0.5,1,5,50,88,126,500,1256,1448,5000 --markdown results/gain_scan.md
 	$(BIN)/gearbench stability experiments/plants/thesis_gear.yaml --controller pi --ki 0.005 \
 		--markdown results/gain_scan.md
+	$(BIN)/gearbench compare experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
+	$(BIN)/gearbench diagnose experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
+	$(BIN)/python -m gearbench.studies.emps --results results
 
 test: install-test
 	$(BIN)/python -m pytest -q
@@ -37,6 +41,7 @@ test: install-test
 bench: install
 	$(BIN)/python benchmarks/bench_table1.py
 	$(BIN)/python benchmarks/bench_sweep.py
+	$(BIN)/python benchmarks/bench_diagnose.py
 
 clean-cache:
 	rm -rf $$HOME/.cache/gearbench

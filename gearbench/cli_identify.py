@@ -229,15 +229,22 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     console.print(f"figures and tables in {out}/")
 
 
+def _defaults(plant, name, cand):
+    from .identify.diagnose import Candidate, _start_values
+    return _start_values(plant, Candidate(name, cand.options))
+
+
 @click.command()
 @common
 @click.option("--effect", "effect_spec", required=True, metavar="'NAME [key=value ...]'",
               help="The effect to add, with its options (location=..., signal=...) and optional starting values; "
                    "without a location every allowed place is tried and the best kept.")
 @click.option("--free", "free", multiple=True, metavar="KEY", help="A plant parameter fitted too (e.g. load.inertia).")
+@click.option("--max-evals", type=int, default=None,
+              help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The new plant file (written only if the fit converges).")
-def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, output):
+def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, max_evals, output):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors as
@@ -261,15 +268,21 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
         if not places:
             raise ValueError(f"--effect {name}: it cannot be added here (already in the plant, not applicable "
                              f"to it, or options {opts} not allowed)")
+        from .identify.fit import Free
+        for p in free:
+            Free.plant(plant, p)  # a bad key is named before any solving
         scorer = Scorer(replay)
         with console.status(f"fitting {name} in {len(places)} place(s)"):
-            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free)) for c in places]
+            start = {k: v for k, v in item.items() if k not in eff.options}
+            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free),
+                                   start=None if not start else {**c.options, **_defaults(plant, name, c), **start},
+                                   max_nfev=max_evals) for c in places]
     except _errors() as exc:
         _fail(exc)
     ok = [t for t in tried if t.ok]
     if not ok:
         notes = "; ".join(f"{t.candidate.label()}: {t.note}" for t in tried)
-        console.print(f"[bold red]the fit did not converge[/]: {notes}. The plant is unchanged; nothing written.")
+        click.echo(f"the fit did not converge: {notes}. The plant is unchanged; nothing written.", err=True)
         sys.exit(1)
     best = min(ok, key=lambda t: t.result.bic)
     res = best.result

@@ -49,7 +49,7 @@ class SolverOptions:
     max_step_s: float = 1e-2
     max_steps: int = 20_000_000
     output_dt_s: float = 1e-3
-    friction_speed_rel: float = 1e-4
+    friction_speed_rel: float = 1e-5
 
 
 class SolverError(RuntimeError):

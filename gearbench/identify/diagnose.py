@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import multiprocessing as mp
 
 import numpy as np
@@ -32,8 +32,10 @@ from .replay import Replay, ReplayError
 
 MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
-AT_NOISE = 1.2             # an error within 1.2x the noise floor is explained
+AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is explained
+JOINT_TOP = 3              # candidates refitted jointly with the effects already added
 GRID = (0.03, 0.1, 0.3, 1.0, 3.0)  # multiples of a parameter's typical value tried before fitting
+                                   # (both signs when its bounds allow a negative value)
 
 
 @dataclass
@@ -114,7 +116,8 @@ def _start_values(plant: Plant, cand: Candidate) -> dict:
 
 
 def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
-                  free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Tried:
+                  free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = (),
+                  start: dict | None = None, max_nfev: int | None = None) -> Tried:
     """Fit one candidate (its parameters, the free plant parameters and those
     of the plant's effects numbered in ``refit``, jointly) to the record.
 
@@ -123,7 +126,7 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     typical value picks the basin, bounded least squares does the rest.
     """
     eff = REGISTRY[cand.name]
-    values = _start_values(plant, cand)
+    values = dict(start) if start is not None else _start_values(plant, cand)
     try:
         est = eff.estimate(values, replay.data.signals, plant)
         values.update(est or {})
@@ -135,10 +138,12 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
             if est is None:
                 return Tried(cand, None, note="nothing to fit and nothing read from the data")
             res = evaluate(replay, scorer, with_it, k=len(est))
+        elif start is not None:
+            res = fit(replay, with_it, frees, scorer, max_nfev=max_nfev)
         else:
             first, costs = frees[0], {}
-            for g in GRID:
-                v = first.scale * g
+            signs = (1.0, -1.0) if first.low < 0.0 else (1.0,)
+            for v in (s * g * first.scale for s in signs for g in GRID):
                 try:
                     r = scorer.weighted(replay.run(set_values(with_it, [first], [v])))
                     costs[v] = float(r @ r)
@@ -147,7 +152,7 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
             start = None
             if costs:
                 start = [min(costs, key=costs.get)] + [get_value(with_it, f) for f in frees[1:]]
-            res = fit(replay, with_it, frees, scorer, start=start)
+            res = fit(replay, with_it, frees, scorer, start=start, max_nfev=max_nfev)
             res.k += len(est or {})
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
@@ -229,7 +234,10 @@ def _rank(tried: list[Tried]) -> list[Tried]:
 
 
 def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
-    jobs = [(replay, scorer, plant, c, free_plant, refit) for c in cands]
+    """Fit candidates in parallel; an item of ``cands`` may be ``(candidate, start values)``."""
+    jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
+            for c in cands]
+    jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
     if workers and workers > 1 and len(jobs) > 1:
         ctx = mp.get_context("fork")
         with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
@@ -247,9 +255,48 @@ def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress)
     return out
 
 
+def _accepts(current: FitResult, new: FitResult) -> bool:
+    """An added effect pays: the BIC falls by more than MIN_BIC_DROP and the
+    noise-weighted RMS error of all compared signals by more than MIN_ERROR_DROP."""
+    return (current.bic - new.bic > MIN_BIC_DROP
+            and new.weighted_rms < (1.0 - MIN_ERROR_DROP) * current.weighted_rms)
+
+
+def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant) -> tuple[FitResult, list]:
+    """Replace each added effect by its simpler form (``Effect.simpler``: Stribeck
+    by Coulomb, asymmetric by symmetric friction) when, refitted with the others,
+    the BIC says the extra parameters do not pay.  Returns the result and notes."""
+    notes = []
+    for i in added:
+        e = res.plant.effects[i]
+        simpler = e.effect.simpler(e.values)
+        if simpler is None:
+            continue
+        effects = list(res.plant.effects)
+        effects[i] = AddedEffect(*simpler)
+        trial = replace(res.plant, effects=tuple(effects))
+        frees = [Free.plant(trial, p) for p in free_plant]
+        for j in added:
+            frees += Free.effect(trial, j)
+        try:
+            r = fit(replay, trial, frees, scorer)
+        except (ReplayError, ValueError):
+            continue
+        if r.converged and r.bic <= res.bic:
+            notes.append((i, e.name, simpler[0], res.bic - r.bic))
+            res = r
+    return res, notes
+
+
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
              workers: int | None = None, progress=None, only: tuple[str, ...] = ()) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
+
+    Each rung fits every candidate with the effects added so far held (cheap),
+    then refits the best ``JOINT_TOP`` jointly with them (the first rung's
+    friction must give back what a later viscous term explains), accepts the
+    best if it pays (``_accepts``), and tries the simpler forms of what was
+    added (``_simplify``).
 
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
@@ -271,39 +318,50 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     first_tried: list[Tried] = []
     reason = ""
     for step in range(max_steps):
-        if current_res.error <= AT_NOISE * scorer.noise_floor:
-            reason = (f"the model explains the record down to its noise: error {current_res.error:.4g} {unit} "
-                      f"against a noise floor of {scorer.noise_floor:.4g} {unit}")
-            break
-        # the effects added so far are refitted with each candidate: the first
-        # rung's friction must give back what a later viscous term explains
-        refit = tuple(range(len(plant.effects), len(current.effects)))
+        added = tuple(range(len(plant.effects), len(current.effects)))
         tried = _rank(_fit_all(replay, scorer, current, candidates(current, replay, only), free_plant,
-                               refit, workers, progress))
+                               (), workers, progress))
+        if added:
+            top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
+            joint = _fit_all(replay, scorer, current, top, free_plant, added, workers, None)
+            tried = _rank(joint + tried[len(top):])
         if step == 0:
             first_tried = tried
         best = tried[0] if tried and tried[0].ok else None
-        if best is None or not (current_res.bic - best.result.bic > MIN_BIC_DROP
-                                and best.result.error < (1 - MIN_ERROR_DROP) * current_res.error):
+        if best is None or not _accepts(current_res, best.result):
             if best is None:
                 gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
             else:
-                gain = (f"the best, {best.candidate.label()}, would lower the error only to "
+                gain = (f"the best, {best.candidate.label()}, would take the error to "
                         f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - current_res.bic:+.1f}; "
                         f"an added effect must lower it by more than {MIN_BIC_DROP:g})")
-            reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
-                      f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
-                      f"{unit}) and {gain}; the missing physics is not in the library" if step == 0 else
-                      f"after {len(ladder)} step(s) nothing more pays: {gain}")
+            if step > 0:
+                reason = f"after {len(ladder)} step(s) nothing more pays: {gain}"
+            elif current_res.weighted_rms <= AT_NOISE:
+                reason = (f"the model explains the record down to its noise: error {current_res.error:.4g} {unit} "
+                          f"against a noise floor of {scorer.noise_floor:.4g} {unit} (all signals: "
+                          f"{current_res.weighted_rms:.3g}x their noise floors); {gain}")
+            else:
+                reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
+                          f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
+                          f"{unit}) and {gain}; the missing physics is not in the library")
             break
         text = explain(replay, scorer, current_res, best)
-        fitted = best.result
+        fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
                            [e.to_dict() for e in fitted.plant.effects],
                            {p: get_value(fitted.plant, Free.plant(fitted.plant, p)) for p in free_plant},
                            text))
-        current, current_res = best.result.plant, best.result
+        for i, old, new, gain in notes:
+            rung = ladder[i - len(plant.effects)]
+            e = fitted.plant.effects[i]
+            rung.effect = new
+            rung.params = {k: v for k, v in e.values.items() if not isinstance(v, str)}
+            rung.explanation += (f" Simplified at step {len(ladder)}: {new} explains as well as {old} once "
+                                 f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
+                                 "parameters do not pay.")
+        current, current_res = fitted.plant, fitted
     verdict = ladder[0].effect if ladder else None
     return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
                      reason, current, base, base.plant, scorer.relative_pct(base.sim), tuple(free_plant))

@@ -171,6 +171,11 @@ class FitResult:
     sim: dict | None = None
 
     @property
+    def weighted_rms(self) -> float:
+        """RMS of all compared signals' residuals in units of their noise floors (1 = at noise)."""
+        return math.sqrt(self.rss / self.n) if self.n else math.nan
+
+    @property
     def bic(self) -> float:
         """Bayesian information criterion of the weighted residuals, ``n ln(RSS/n) + k ln n``."""
         return self.n * math.log(max(self.rss, 1e-300) / self.n) + self.k * math.log(self.n)

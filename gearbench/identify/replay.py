@@ -33,14 +33,19 @@ class ReplayError(RuntimeError):
     """A replay that cannot run or failed; the message says which and why."""
 
 
-def local_value_and_slope(t: np.ndarray, y: np.ndarray, i: int, half: int = 10) -> tuple[float, float]:
-    """Straight-line fit of ``y`` over samples ``i - half .. i + half``: value and slope at ``t[i]``."""
+def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int = 2):
+    """Polynomial fit of ``y`` over samples ``i - half .. i + half`` (a quadratic by
+    default, so an accelerating stretch does not bias it): value and slope at
+    ``t[i]``, each with its standard error."""
     a, b = max(0, i - half), min(len(t), i + half + 1)
     tt = t[a:b] - t[i]
-    if b - a < 3:
-        return float(y[i]), 0.0
-    slope, value = np.polyfit(tt, y[a:b], 1)
-    return float(value), float(slope)
+    if b - a < degree + 3:
+        return float(y[i]), 0.0, np.inf, np.inf
+    coef, cov = np.polyfit(tt, y[a:b], degree, cov="unscaled")
+    r = y[a:b] - np.polyval(coef, tt)
+    s2 = float(r @ r) / (b - a - degree - 1)
+    return (float(coef[-1]), float(coef[-2]), float(np.sqrt(cov[-1, -1] * s2)),
+            float(np.sqrt(cov[-2, -2] * s2)))
 
 
 @dataclass
@@ -49,17 +54,22 @@ class Replay:
 
     controller: a closed-loop law (``control.sampled.SampledPV``) driven by the
     record's set point, or None for open loop; window_s: open-loop re-initialisation
-    interval, s (None: one window); options: solver options.
+    interval, s (None: one window); options: solver options; start_moving: the
+    record starts in motion (EMPS's do), so the model starts at the measured speed
+    (None: in closed loop, whose records are cut from a running machine).
     """
     data: Measurement
     controller: object | None = None
     window_s: float | None = 1.0
     options: SolverOptions = field(default_factory=lambda: SolverOptions(rtol=1e-6, max_step_s=1e-3))
+    start_moving: bool | None = None
 
     def __post_init__(self):
         t = self.data.time_s
         self.t0 = float(t[0])
         self.t = t - self.t0
+        if self.start_moving is None:
+            self.start_moving = self.controller is not None
         if self.controller is not None and self.data.setpoint is None:
             raise ReplayError(f"{self.data.source}: a closed-loop replay needs a set point column "
                               "(setpoint_deg or setpoint_mm)")
@@ -99,11 +109,16 @@ class Replay:
         return tolerance_scales(plant)
 
     def initial_state(self, plant: Plant) -> np.ndarray:
-        """At rest with the mesh centred, unless the record starts moving (then at that speed)."""
+        """At rest with the mesh centred (SPEC: a record starts at rest), unless
+        ``start_moving``: then at the speed a local fit of the first samples gives.
+
+        Which records start moving is known, not guessed: an estimate from the
+        first samples cannot tell a moving start from a fast start out of rest.
+        """
         x = rest_state(plant)
         _, th = self._motion(plant)
-        if th is not None:
-            _, w = local_value_and_slope(self.t, th, 0)
+        if th is not None and self.start_moving:
+            _, w, _, _ = local_fit(self.t, th, 0, 20, 1)
             n = plant.gear.ratio
             x[L.X_WL] = w
             x[L.X_WM] = x[L.X_WP] = w * n
@@ -113,15 +128,19 @@ class Replay:
         return x
 
     def _reset_angles(self, x: np.ndarray, i: int, plant: Plant) -> None:
-        """Move the angle states so the model's position matches the measured one at sample i."""
+        """Move the angle states so the model's position matches the measured one at
+        sample i, when the model has drifted further than the local fit can tell
+        (5 standard errors): a model that has not drifted is left alone, so the
+        reset never adds the fit's own error to a right model."""
         name, th = self._motion(plant)
         if th is None:
             return
-        meas, _ = local_value_and_slope(self.t, th, i)
+        meas, _, se, _ = local_fit(self.t, th, i)
         n = plant.gear.ratio
         model = x[L.X_THM] / n if name.startswith("motor") else (
             (x[L.X_THM] - x[L.X_PHI]) / n - x[L.X_DELTA])
-        x[L.X_THM] += n * (meas - model)
+        if abs(meas - model) > 5.0 * se:
+            x[L.X_THM] += n * (meas - model)
 
     # ---------------------------------------------------------------- run
     def pack(self, plant: Plant) -> np.ndarray:

@@ -81,6 +81,11 @@ class Effect:
         least-squares fit cannot move (integer counts); None = fit instead."""
         return None
 
+    def simpler(self, values: dict) -> tuple[str, dict] | None:
+        """A nested simpler effect (fewer parameters) this one reduces to, as
+        ``(name, values)`` from these values; None when there is none."""
+        return None
+
     def measure(self, values: dict, name: str, y: np.ndarray, time_s: np.ndarray, plant) -> np.ndarray:
         """A sensor effect distorts measured signal ``name``; others leave it."""
         return y

@@ -16,7 +16,7 @@ import numba as nb
 
 from ... import layout as L
 from .base import Effect, Param, register
-from .location import LOCATIONS, add, at_shaft, slot, torque_scale
+from .location import LOCATIONS, add, at_shaft, key, slot, torque_scale
 
 
 @nb.njit(cache=True, inline="always")
@@ -37,6 +37,13 @@ class CoulombFriction(Effect):
         Param("torque_negative", "N m (N at the carriage: force_negative)", 0.0, 1e6, torque_scale,
               "level moving backward when friction is asymmetric", optional=True),
     )
+
+    def simpler(self, values):
+        """The symmetric form, when asymmetric."""
+        neg = key(values, "torque_negative")
+        if neg not in values:
+            return None
+        return self.name, {k: v for k, v in values.items() if k != neg}
 
     def pack(self, values, p, plant):
         loc, tc = at_shaft(values, plant, "torque", 1)

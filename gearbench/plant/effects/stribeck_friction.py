@@ -14,7 +14,7 @@ import numba as nb
 
 from ... import layout as L
 from .base import Effect, Param, register
-from .location import LOCATIONS, add, at_shaft, slot, speed_scale, torque_scale
+from .location import LOCATIONS, add, at_shaft, key, slot, speed_scale, torque_scale
 
 
 @nb.njit(cache=True, inline="always")
@@ -48,6 +48,12 @@ class StribeckFriction(Effect):
         Param("stribeck_speed", "rad/s (m/s at the carriage: stribeck_speed_m_s)", 1e-9, 1e6,
               _stribeck_speed, "speed w_s over which T_s decays to T_c"),
     )
+
+    def simpler(self, values):
+        """Coulomb friction at the sliding level (T_s = T_c)."""
+        out = {"location": values.get("location", "load")}
+        out[key(values, "torque")] = values[key(values, "coulomb_torque")]
+        return "coulomb_friction", out
 
     def pack(self, values, p, plant):
         loc, ts = at_shaft(values, plant, "static_torque", 1)

@@ -9,7 +9,7 @@ import numba as nb
 
 from ... import layout as L
 from .base import Effect, Param, register
-from .location import LOCATIONS, add, at_shaft, coefficient_scale, slot
+from .location import LOCATIONS, add, at_shaft, key, coefficient_scale, slot
 
 
 @nb.njit(cache=True, inline="always")
@@ -30,6 +30,13 @@ class ViscousFriction(Effect):
         Param("coefficient_negative", "N m s/rad (N s/m at the carriage)", 0.0, 1e9, coefficient_scale,
               "coefficient moving backward when asymmetric", optional=True),
     )
+
+    def simpler(self, values):
+        """The symmetric form, when asymmetric."""
+        neg = key(values, "coefficient_negative")
+        if neg not in values:
+            return None
+        return self.name, {k: v for k, v in values.items() if k != neg}
 
     def pack(self, values, p, plant):
         loc, c = at_shaft(values, plant, "coefficient", 2)

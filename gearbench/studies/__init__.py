@@ -1,0 +1,1 @@
+"""Studies: scripted comparisons of gearbench models with published measurements and results."""
