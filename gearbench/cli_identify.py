@@ -12,6 +12,11 @@ from rich.table import Table
 
 console = Console(stderr=True)
 
+
+def stdout() -> Console:
+    """Tables on stdout; wide enough when piped (rich would fold them to 80 columns)."""
+    return Console(width=None if sys.stdout.isatty() else 120)
+
 _common = [
     click.argument("plant_file", metavar="PLANT.yaml", type=click.Path(exists=True, dir_okay=False, path_type=Path)),
     click.argument("data_file", metavar="DATA.csv", type=click.Path(exists=True, dir_okay=False, path_type=Path)),
@@ -60,14 +65,15 @@ def _errors():
     return (ConfigError, MeasurementError, ReplayError, FitError, ValueError)
 
 
-def _out_dir(results: Path, kind: str, data_file: Path) -> Path:
-    return results / f"{kind}_{data_file.stem}"
+def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Path:
+    """RESULTS/<kind>_<plant>_<data>: one folder per pair, so comparing two plants keeps both."""
+    return results / f"{kind}_{plant_file.stem}_{data_file.stem}"
 
 
 @click.command()
 @common
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
-              show_default=True, help="Folder; figures and tables go to RESULTS/compare_<DATA>/.")
+              show_default=True, help="Folder; figures and tables go to RESULTS/compare_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as one JSON object on stdout.")
 def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json):
     """Drive the model as the record was driven and show where it fails.
@@ -87,7 +93,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
         c = comparison(replay, plant)
     except _errors() as exc:
         _fail(exc)
-    out = _out_dir(results, "compare", data_file)
+    out = _out_dir(results, "compare", plant_file, data_file)
     t = replay.t
     figures = []
     for row in c["signals"]:
@@ -123,19 +129,19 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
         click.echo(json.dumps(summary, indent=1))
         return
     tab = Table(title=f"{plant.name} against {data_file.name} ({'closed' if replay.closed_loop else 'open'} loop)")
-    for col in ("signal", "RMS error", "max error", "noise floor", "RMS/noise", "relative %"):
-        tab.add_column(col, justify="right" if col != "signal" else "left")
+    for col in ("signal", "unit", "RMS error", "max error", "noise floor", "RMS/noise", "relative %"):
+        tab.add_column(col, justify="left" if col in ("signal", "unit") else "right", no_wrap=True)
     for r in c["signals"]:
-        tab.add_row(r["signal"], f"{r['rms_error']:.4g} {r['unit']}", f"{r['max_error']:.4g} {r['unit']}",
-                    f"{r['noise_floor']:.3g} {r['unit']}", f"{r['ratio_to_noise']:.3g}", f"{r['relative_error_pct']:.3g}")
-    Console().print(tab)
+        tab.add_row(r["signal"], r["unit"], f"{r['rms_error']:.4g}", f"{r['max_error']:.4g}",
+                    f"{r['noise_floor']:.3g}", f"{r['ratio_to_noise']:.3g}", f"{r['relative_error_pct']:.3g}")
+    stdout().print(tab)
     if c.get("phases"):
         tp = Table(title=f"where the {c['primary']} error sits")
         for col in ("phase", "time share", "error share", "RMS"):
             tp.add_column(col)
         for k, v in c["phases"].items():
             tp.add_row(k, f"{v['time_share']:.1%}", f"{v['error_share']:.1%}", f"{v['rms']:.4g}")
-        Console().print(tp)
+        stdout().print(tp)
     console.print(f"figures and tables in {out}/")
 
 
@@ -148,7 +154,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
 @click.option("--max-steps", type=int, default=4, show_default=True, help="Longest ladder.")
 @click.option("--workers", type=int, default=None, help="Processes (default: all cores).")
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
-              show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<DATA>/.")
+              show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first), "
                    "verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
@@ -183,7 +189,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     except _errors() as exc:
         _fail(exc)
     j = d.to_json()
-    out = _out_dir(results, "diagnose", data_file)
+    out = _out_dir(results, "diagnose", plant_file, data_file)
     steps = [{"effect": "baseline", "error": d.baseline_error}] + [{"effect": s.effect, "error": s.error}
                                                                   for s in d.ladder]
     fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}")
@@ -208,7 +214,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         pars = ", ".join(f"{k} = {v:.4g}" for k, v in t.params.items())
         tab.add_row(t.candidate.label(), pars if t.ok else t.note[:60],
                     f"{t.result.error:.4g}" if t.ok else "—", f"{t.result.bic:.6g}" if t.ok else "—")
-    Console().print(tab)
+    stdout().print(tab)
     lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
     for col in ("step", "effect", "parameters", "error"):
         lad.add_column(col)
@@ -216,16 +222,16 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     for i, s in enumerate(d.ladder, 1):
         lad.add_row(str(i), s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
                     ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
-    Console().print(lad)
-    Console().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
+    stdout().print(lad)
+    stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
     if d.verdict:
-        Console().print(f"[bold]verdict: {d.verdict}[/]")
+        stdout().print(f"[bold]verdict: {d.verdict}[/]")
         for i, s in enumerate(d.ladder, 1):
-            Console().print(f"{i}. {s.explanation}")
+            stdout().print(f"{i}. {s.explanation}")
     else:
-        Console().print(f"[bold]verdict: none[/] — {d.reason}")
+        stdout().print(f"[bold]verdict: none[/] — {d.reason}")
     if d.ladder:
-        Console().print(f"stopped: {d.reason}")
+        stdout().print(f"stopped: {d.reason}")
     console.print(f"figures and tables in {out}/")
 
 
@@ -240,11 +246,12 @@ def _defaults(plant, name, cand):
               help="The effect to add, with its options (location=..., signal=...) and optional starting values; "
                    "without a location every allowed place is tried and the best kept.")
 @click.option("--free", "free", multiple=True, metavar="KEY", help="A plant parameter fitted too (e.g. load.inertia).")
+@click.option("--refit", is_flag=True, help="Refit the parameters of the effects the plant already has, too.")
 @click.option("--max-evals", type=int, default=None,
               help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The new plant file (written only if the fit converges).")
-def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, max_evals, output):
+def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, max_evals, output):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors as
@@ -274,7 +281,8 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
         scorer = Scorer(replay)
         with console.status(f"fitting {name} in {len(places)} place(s)"):
             start = {k: v for k, v in item.items() if k not in eff.options}
-            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free),
+            again = tuple(range(len(plant.effects))) if refit else ()
+            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free), again,
                                    start=None if not start else {**c.options, **_defaults(plant, name, c), **start},
                                    max_nfev=max_evals) for c in places]
     except _errors() as exc:
@@ -296,5 +304,5 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
     for k, v in res.values.items():
         se = res.stderr.get(k, math.nan)
         tab.add_row(k, f"{v:.6g}", f"{se:.3g}")
-    Console().print(tab)
-    Console().print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}")
+    stdout().print(tab)
+    stdout().print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}")

@@ -42,7 +42,7 @@ def test_compare_reports_signals_phases_and_figures(record, tmp_path):
     assert all(s["ratio_to_noise"] > 5 for s in out["signals"] if s["signal"] != "current_A")
     assert set(out["phases"]) <= {"standstill", "steady motion", "direction reversal", "acceleration"}
     assert sum(p["error_share"] for p in out["phases"].values()) == pytest.approx(1.0)
-    folder = tmp_path / "compare_rig"
+    folder = tmp_path / "compare_bench_rig_rig"
     assert (folder / "load_angle_deg.png").stat().st_size > 10_000
     assert (folder / "load_angle_deg_residual_vs_motion.png").exists()
 
@@ -58,7 +58,7 @@ def test_diagnose_json_has_the_spec_keys(record, tmp_path):
     assert out["candidates"][0]["params"]["torque"] == pytest.approx(0.8, rel=0.05)
     errs = [c["error"] for c in out["candidates"] if c["error"] is not None]
     assert out["ladder"][0]["error"] < out["baseline_error"] and errs[0] == min(errs)
-    assert (tmp_path / "diagnose_rig" / "ladder.png").exists()
+    assert (tmp_path / "diagnose_bench_rig_rig" / "ladder.png").exists()
 
 
 def test_fit_writes_a_plant_that_loads_and_fits_better(record, tmp_path):

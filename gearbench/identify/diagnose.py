@@ -318,6 +318,11 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     first_tried: list[Tried] = []
     reason = ""
     for step in range(max_steps):
+        if step > 0 and current_res.weighted_rms <= AT_NOISE:
+            reason = (f"after {len(ladder)} step(s) the model explains the record down to its noise: "
+                      f"error {current_res.error:.4g} {unit} against a noise floor of {scorer.noise_floor:.4g} "
+                      f"{unit} (all signals: {current_res.weighted_rms:.3g}x their noise floors)")
+            break
         added = tuple(range(len(plant.effects), len(current.effects)))
         tried = _rank(_fit_all(replay, scorer, current, candidates(current, replay, only), free_plant,
                                (), workers, progress))
@@ -333,8 +338,10 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                 gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
             else:
                 gain = (f"the best, {best.candidate.label()}, would take the error to "
-                        f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - current_res.bic:+.1f}; "
-                        f"an added effect must lower it by more than {MIN_BIC_DROP:g})")
+                        f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - current_res.bic:+.1f}, "
+                        f"weighted RMS {current_res.weighted_rms:.4g} -> {best.result.weighted_rms:.4g}; an "
+                        f"added effect must lower the BIC by more than {MIN_BIC_DROP:g} and the weighted RMS "
+                        f"by {MIN_ERROR_DROP:.0%})")
             if step > 0:
                 reason = f"after {len(ladder)} step(s) nothing more pays: {gain}"
             elif current_res.weighted_rms <= AT_NOISE:

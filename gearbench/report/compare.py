@@ -149,7 +149,7 @@ def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, un
     """The error after each step of the ladder: ``steps[0]`` the baseline, then one
     ``{"effect": name, "error": value}`` per effect added; a dashed line marks the
     noise floor (the error noise alone would leave) when given.  ``unit`` labels the
-    error axis."""
+    error axis, logarithmic when the errors span more than two decades."""
     if not steps:
         raise ValueError("a ladder needs at least its baseline step")
     names = [str(s["effect"]) if i == 0 else f"+ {s['effect']}" for i, s in enumerate(steps)]
@@ -164,7 +164,13 @@ def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, un
         ax.legend(loc="upper right", fontsize=8)
     ax.set_xticks(pos, names, rotation=20, ha="right")
     ax.set_ylabel(f"error ({unit})" if unit else "error")
-    ax.set_ylim(0, 1.15 * max(float(errors.max()), noise_floor or 0.0) or 1.0)
+    top = max(float(errors.max()), noise_floor or 0.0) or 1.0
+    low = min(float(errors[errors > 0].min()) if np.any(errors > 0) else top, noise_floor or top)
+    if top > 100 * low:  # errors over decades: a linear axis would hide the last steps
+        ax.set_yscale("log")
+        ax.set_ylim(low / 3, top * 3)
+    else:
+        ax.set_ylim(0, 1.15 * top)
     ax.set_title(title or "error as effects are added")
     ax.grid(axis="y", alpha=0.3)
     return fig
