@@ -82,3 +82,18 @@ def test_two_hidden_effects_take_two_steps():
     assert sorted(s.effect for s in d.ladder) == ["coulomb_friction", "load_spring"], d.to_json()["ladder"]
     assert d.ladder[1].error < d.ladder[0].error < d.baseline_error
     assert d.ladder[-1].error <= 1.5 * d.noise_floor
+
+
+def test_leadscrew_carriage_friction_is_found():
+    """The translational variant: the leadscrew apparatus with Coulomb friction at
+    the carriage (a force, N), measured as carriage position in mm."""
+    plant = load_plant(PLANTS / "leadscrew_apparatus.yaml")
+    t, u = excitation("steps", plant, duration_s=3.0, seed=4)
+    hidden = [AddedEffect("coulomb_friction", {"location": "carriage", "force": 30.0})]
+    data = synthesize(plant, hidden, t, u, noise={"motor_angle_deg": 0.05, "load_position_mm": 0.002,
+                                                 "current_A": 0.004}, seed=4)
+    assert "load_position_mm" in data.signals
+    d = diagnose(plant, Replay(data), max_steps=1, only=("coulomb_friction", "viscous_friction", "bias_torque"))
+    assert d.verdict == "coulomb_friction" and d.ladder[0].options == {"location": "carriage"}
+    assert d.ladder[0].params["force"] == pytest.approx(30.0, rel=0.2)
+    assert d.unit == "mm" and d.ladder[0].error <= 1.5 * d.noise_floor

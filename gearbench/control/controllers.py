@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import layout as L
 
-COMPENSATORS = ("none", "thesis_shift", "setpoint_direction")
+COMPENSATORS = ("none", "thesis_shift", "setpoint_direction", "direction_feedforward")
 """Backlash compensators (each adds the set-point shift, thesis Equation 1, of
 ``shift_deg``; they differ in what decides its sign):
 
@@ -26,7 +26,14 @@ COMPENSATORS = ("none", "thesis_shift", "setpoint_direction")
   The profile is known ahead, so the sign changes only at the profile's
   corners, never on an overshoot: the shift becomes a pure feedforward of the
   clearance, like a backlash inverse (Tao & Kokotovic) keyed to the commanded
-  direction instead of the measured one.
+  direction instead of the measured one;
+* ``direction_feedforward``: ``setpoint_direction`` plus a velocity
+  feedforward ``Kff dr/dt``, ``Kff = N (ke + R b / kt)`` V per rad/s of the
+  set point's speed at the output, ``b = bm + bl/N^2`` (the voltage that holds
+  the ramp's speed against back-emf and viscous load, engaged, in steady
+  state; model-based, from the plant).  On the thesis's heavily damped valve
+  the error left after the shift is mostly lag on the ramps, which a shift
+  cannot remove.
 """
 
 KINDS = {"open": L.CTRL_OPEN, "bang_bang": L.CTRL_BANGBANG, "p": L.CTRL_P,
@@ -87,5 +94,9 @@ def pack_controller(ctrl: Controller, backlash_deg: float, p: np.ndarray) -> np.
         p[L.P_SHIFT] = math.radians(shift)
     else:
         p[L.P_SHIFT] = 0.0
-    p[L.P_COMP] = L.COMP_DIRECTION if comp == "setpoint_direction" else L.COMP_THESIS
+    p[L.P_COMP] = L.COMP_DIRECTION if comp in ("setpoint_direction", "direction_feedforward") else L.COMP_THESIS
+    p[L.P_FF] = 0.0
+    if comp == "direction_feedforward" and p[L.P_TORQUE_IN] == 0.0:
+        n, b = p[L.P_N], p[L.P_BM] + p[L.P_BL] / p[L.P_N] ** 2
+        p[L.P_FF] = n * (p[L.P_KE] + p[L.P_R] * b / p[L.P_KT])
     return p

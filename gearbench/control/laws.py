@@ -11,12 +11,14 @@ the motor speed is >= 0, else ``-s``), the error is ``e = r +- s - theta_m/N``.
 * PID: ``u = Kp (e + Ki z + Kd (e - f)/Tf)``, ``df/dt = (e - f)/Tf``, a
   derivative filtered with time constant ``Tf``;
 
-all saturated at ``+-Vmax``.  Kp in V/rad, Ki in 1/s, Kd in s, Tf in s (the
+plus, for the ``direction_feedforward`` compensator, ``Kff dr/dt``: the
+voltage that holds the set point's ramp speed in steady state (``P_FF``, with
+``dr/dt`` the current segment's slope); all saturated at ``+-Vmax``.  Kp in V/rad, Ki in 1/s, Kd in s, Tf in s (the
 experiment files give Kp in V/deg, the thesis's unit).
 """
 import numba as nb
 
-from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_BB,
+from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_BB, P_FF, P_REF_SLOPE,
                       M_SHIFT, P_KD, P_KI, P_KP, P_N, P_SHIFT, P_TF, P_VMAX,
                       X_THM, X_ZD, X_ZI)
 
@@ -40,7 +42,7 @@ def command(x, p, modes, ref, kind):
         u += p[P_KI] * x[X_ZI]
     if kind == CTRL_PID:
         u += p[P_KD] * (e - x[X_ZD]) / p[P_TF]
-    return p[P_KP] * u
+    return p[P_KP] * u + p[P_FF] * p[P_REF_SLOPE]
 
 
 @nb.njit(cache=True, inline="always")

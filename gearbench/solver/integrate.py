@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import command, saturate
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_REF_SLOPE, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
                       METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -231,6 +231,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             # set-point-direction compensator: the shift's sign follows the
             # profile, known ahead segment by segment; it switches only here
             modes[M_SHIFT] = direction_of_segment(k, seg_t, seg_v, seg_s, modes[M_SHIFT])
+        p[P_REF_SLOPE] = s  # the feedforward's set-point speed (the loop owns this slot)
         if closed:
             classify_bangbang(x, p, modes, v0)
             max_err = max(max_err, abs(v0 - load_angle(x, p)))
