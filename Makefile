@@ -33,6 +33,7 @@ run: install
 		--markdown results/gain_scan.md
 	$(BIN)/gearbench compare experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/gearbench diagnose experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
+	$(BIN)/python -m gearbench.studies.hidden_effects --results results
 	$(BIN)/python -m gearbench.studies.emps --results results
 
 test: install-test

@@ -24,30 +24,7 @@ from gearbench.identify.diagnose import diagnose
 from gearbench.identify.replay import Replay
 from gearbench.identify.synth import excitation, synthesize
 from gearbench.plant.effects import REGISTRY, AddedEffect
-
-PLANTS = Path(__file__).resolve().parents[1] / "experiments" / "plants"
-NOISE = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}
-
-HIDDEN = {  # effect -> (plant file, hidden values, main parameter)
-    "backlash": ("bench_rig_rigid.yaml", {"backlash_deg": 1.5}, "backlash_deg"),
-    "coulomb_friction": ("bench_rig.yaml", {"location": "motor", "torque": 0.02}, "torque"),
-    "stribeck_friction": ("bench_rig.yaml", {"location": "load", "static_torque": 1.2, "coulomb_torque": 0.7,
-                                             "stribeck_speed": 2.0}, "static_torque"),
-    "viscous_friction": ("bench_rig.yaml", {"location": "load", "coefficient": 0.05}, "coefficient"),
-    "shaft_compliance": ("bench_rig.yaml", {"stiffness": 20.0, "damping": 2e-4, "pinion_inertia": 5e-6},
-                         "stiffness"),
-    "load_spring": ("bench_rig.yaml", {"stiffness": 1.5, "rest_angle_deg": 5.0}, "stiffness"),
-    "bias_torque": ("bench_rig.yaml", {"torque": -0.5}, "torque"),
-    "amplifier_deadzone": ("bench_rig.yaml", {"threshold": 1.5}, "threshold"),
-    "sensor_delay": ("bench_rig.yaml", {"signal": "load_angle_deg", "delay": 0.008}, "delay"),
-    "encoder_quantization": ("bench_rig.yaml", {"signal": "motor_angle_deg", "counts_per_rev": 2048},
-                             "counts_per_rev"),
-}
-
-
-def record(plant, hidden, seed, duration=3.0):
-    t, u = excitation("steps", plant, duration_s=duration, seed=seed)
-    return synthesize(plant, hidden, t, u, noise=NOISE, seed=seed)
+from gearbench.studies.hidden_effects import HIDDEN, PLANTS, record
 
 
 def test_every_effect_has_a_case():

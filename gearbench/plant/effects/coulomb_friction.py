@@ -22,7 +22,10 @@ from .location import LOCATIONS, add, at_shaft, key, slot, torque_scale
 @nb.njit(cache=True, inline="always")
 def torque(w, eps, t_pos, t_neg):
     """Friction torque on the body turning at ``w`` (rad/s), N m."""
-    return -(t_pos if w >= 0.0 else t_neg) * math.tanh(w / eps)
+    level = t_pos if w >= 0.0 else t_neg
+    if level == 0.0:
+        return 0.0  # absent: no tanh in the hot path of a plant without friction
+    return -level * math.tanh(w / eps)
 
 
 @register
