@@ -6,7 +6,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test bench clean-cache install install-test
+.PHONY: run test bench emps-library clean-cache install install-test
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -34,7 +34,7 @@ run: install
 	$(BIN)/gearbench compare experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/gearbench diagnose experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/python -m gearbench.studies.hidden_effects --results results
-	$(BIN)/python -m gearbench.studies.emps --results results
+	$(BIN)/python -m gearbench.studies.emps --results results --no-library
 
 test: install-test
 	$(BIN)/python -m pytest -q
@@ -43,6 +43,10 @@ bench: install
 	$(BIN)/python benchmarks/bench_table1.py
 	$(BIN)/python benchmarks/bench_sweep.py
 	$(BIN)/python benchmarks/bench_diagnose.py
+
+# the EMPS study with the ladder over the whole effect library too (about 70 min on 2 cores)
+emps-library: install
+	$(BIN)/python -m gearbench.studies.emps --results results
 
 clean-cache:
 	rm -rf $$HOME/.cache/gearbench

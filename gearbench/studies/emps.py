@@ -26,8 +26,8 @@ It writes ``results/emps.md``, ``results/emps.json`` and PNG figures under ``res
 4. **Closed-loop errors per signal** (``closed_loop_errors``): position, velocity,
    acceleration and force; velocity and acceleration come from the measured and the simulated
    motor position by the same chain, the paper's IDIM one: 4th-order Butterworth 100 Hz,
-   ``filtfilt`` (MATLAB padding), then central differences twice; the first 49 samples are
-   dropped for all four signals.
+   ``filtfilt`` (MATLAB padding), then central differences twice; over the whole record and
+   from sample 49 on (the IDIM scripts' cut, which leaves out the replay's start transient).
 5. **Where the validation run fails** (``where_it_fails``): errors by motion phase and in the
    windows after the pulse edges; then a compliance between motor and carriage
    (``compliance_test``): the rotor carries part of the moving mass, a spring-damper
@@ -92,6 +92,7 @@ PARAM_TOLERANCE_PCT = 5.0
 SIGNALS = ("position", "velocity", "acceleration", "force")
 EDGE_WINDOW_S = 0.05          # "after a pulse edge": the 50 ms following each edge
 ZOOM_S = (4.0, 7.0)           # a stretch of the validation run with pulse edges in motion
+ZOOM_EDGE_S = (5.32, 5.46)    # one pulse edge (5.344 s) close up
 
 
 # ----------------------------------------------------------------------------- data, plants
@@ -299,6 +300,13 @@ def frees_of(plant: Plant, mass: bool = True) -> list[Free]:
             fr.append(Free("force_negative", i, 0.0, 1e6, 1.0, "N"))
         out += fr
     return [replace(f, scale=abs(get_value(plant, f)) or f.scale) for f in out]
+
+
+def carriage_force_negative_left_out() -> bool:
+    """Whether ``Free.effect`` leaves out a carriage Coulomb friction's ``force_negative``."""
+    p = bare_plant().with_effects(AddedEffect("coulomb_friction", {"location": "carriage", "force": 1.0,
+                                                                   "force_negative": 1.0}))
+    return "force_negative" not in {f.key for f in Free.effect(p, 0)}
 
 
 def _free_paper_name(plant: Plant, f: Free) -> str:
@@ -517,6 +525,34 @@ def edge_lag(data: Measurement, sim: Mapping[str, np.ndarray], max_ms: float = 2
             "peak_ratio": float(np.max(np.abs(a_m[mask])) / np.max(np.abs(a_s[mask])))}
 
 
+def start_speed(data: Measurement, plant: Plant, ctrl: SampledPV, half: int = 20) -> dict:
+    """The carriage speed the replay starts from (m/s) beside estimates from the first
+    ``half + 1`` samples of the measured position: a straight line (the speed about
+    ``half/2`` samples in, biased by the acceleration) and a quadratic (the speed at t = 0),
+    and the measured acceleration there (m/s^2)."""
+    from .. import layout as L
+    t = data.time_s[:half + 1] - data.time_s[0]
+    q = np.asarray(data.signals["motor_position_mm"][:half + 1], dtype=float) / 1000.0
+    lin = np.polyfit(t, q, 1)
+    quad = np.polyfit(t, q, 2)
+    x = Replay(data, ctrl).initial_state(plant)
+    return {"replay_m_per_s": float(x[L.X_WL] * plant.leadscrew.radius), "linear_fit_m_per_s": float(lin[0]),
+            "quadratic_fit_m_per_s": float(quad[1]), "acceleration_m_per_s2": float(2 * quad[0]),
+            "samples": half + 1}
+
+
+def spring_as_force(plant: Plant, travel_m: Sequence[float]) -> dict | None:
+    """A ``load_spring`` of ``plant`` as the force it puts on the carriage (N, positive
+    forward) at the given travel positions (m from the record's start), or None."""
+    e = next((e for e in plant.effects if e.name == "load_spring"), None)
+    if e is None:
+        return None
+    r = plant.leadscrew.radius
+    th0 = math.radians(float(e.values["rest_angle_deg"]))
+    k = float(e.values["stiffness"])
+    return {f"{x:g}": -k * (x / r - th0) / r for x in travel_m}
+
+
 def compliance_plant(rigid: Plant, carriage_fraction: float, stiffness_N_per_m: float,
                      damping_Ns_per_m: float) -> Plant:
     """``rigid`` with its moving mass split by a spring-damper between motor and carriage.
@@ -598,6 +634,7 @@ def fit_compliance(data: Measurement, rigid: Plant, ctrl: SampledPV,
     start = best[1]
     res = fit(Replay(data, ctrl), start, _compliance_frees(start), max_nfev=max_nfev)
     return {"plant": res.plant, "params": compliance_params(res.plant), "grid": grid,
+            "grid_hz": list(grid_hz), "grid_fraction": list(grid_fraction), "grid_zeta": zeta,
             "start": compliance_params(start), "start_force_error_pct": best[0],
             "converged": res.converged, "message": res.message, "nfev": res.nfev,
             "seconds": time.perf_counter() - t0}
@@ -626,6 +663,7 @@ def compliance_test(runs: Runs, rigid: Plant, ctrl: SampledPV, fit_on: Sequence[
             errs[run] = closed_loop_errors(runs[run], sim)
             if run == "validation":
                 edges = where_it_fails(runs[run], sim)["pulse_edges"]
+        out["grid"] = {"mode_hz": f["grid_hz"], "carriage_fraction": f["grid_fraction"], "zeta": f["grid_zeta"]}
         out["fits"][where] = {"params": f["params"], "start": f["start"],
                               "start_force_error_pct": f["start_force_error_pct"], "grid": f["grid"],
                               "converged": f["converged"], "message": f["message"], "nfev": f["nfev"],
@@ -646,8 +684,10 @@ def _zoom_figure(data: Measurement, series: Mapping[str, np.ndarray], measured: 
     top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
     top.plot(t[sel], measured[sel], color="k", lw=1.0, label="measured")
     for i, (label, y) in enumerate(series.items()):
-        top.plot(t[sel], y[sel], lw=1.0, ls="--" if i == 0 else "-", color=f"C{i}", label=label)
-        bottom.plot(t[sel], (measured - y)[sel], lw=0.8, color=f"C{i}", label=label)
+        lw = 2.0 if i == 0 else 1.0        # the first (the rigid model) stays visible under the others
+        top.plot(t[sel], y[sel], lw=lw, ls="--" if i == 0 else "-", color=f"C{i}", label=label)
+        bottom.plot(t[sel], (measured - y)[sel], lw=lw * 0.8, ls="--" if i == 0 else "-", color=f"C{i}",
+                    label=label)
     for i in pulse_edges(data):
         if window[0] <= t[i] <= window[1]:
             for ax in (top, bottom):
@@ -696,6 +736,8 @@ def write_figures(out_dir: Path, runs: Runs, sims: Mapping[str, Mapping], labels
                 series_f[key] = cp["force"][1]
     save(_zoom_figure(val, series_a, pairs["acceleration"][0], "acceleration", "m/s^2", ZOOM_S,
                       "EMPS validation: acceleration around pulse edges"), "validation_acceleration_zoom.png")
+    save(_zoom_figure(val, series_a, pairs["acceleration"][0], "acceleration", "m/s^2", ZOOM_EDGE_S,
+                      "EMPS validation: acceleration at one pulse edge"), "validation_acceleration_edge.png")
     save(_zoom_figure(val, series_f, pairs["force"][0], "force", "N", ZOOM_S,
                       "EMPS validation: force around pulse edges"), "validation_force_zoom.png")
     return names
@@ -788,6 +830,11 @@ def run_study(results: str | Path, data_dir: str | Path | None = None, workers: 
         labels[run] = w.pop("labels")
         fails[run] = w
 
+    starts = {run: start_speed(runs[run], main_d["ladder"]["plant"], ctrl) for run in ("train", "validation")}
+    if lib is not None:
+        q = np.asarray(runs.train.signals["motor_position_mm"], dtype=float) / 1000.0
+        lib["spring_force_N"] = spring_as_force(lib["plant"], (float(q.min()), float(q.max())))
+
     comp = None
     if compliance:
         t0 = time.perf_counter()
@@ -810,6 +857,8 @@ def run_study(results: str | Path, data_dir: str | Path | None = None, workers: 
     timings["total_s"] = time.perf_counter() - t_start
 
     summary = build_summary(runs, by_delay, delays, lib, idm, fails, comp, figures, timings)
+    summary["start_speed"] = _plain(starts)
+    summary["carriage_force_negative_left_out"] = carriage_force_negative_left_out()
     results.mkdir(parents=True, exist_ok=True)
     write_text_atomic(results / "emps.json", json.dumps(summary, indent=2) + "\n")
     write_text_atomic(results / "emps.md", markdown(summary))
@@ -849,8 +898,8 @@ def build_summary(runs: Runs, by_delay: dict, delays: Sequence[int], lib: dict |
         "command": COMMAND,
         "data_files": {k: str(v) for k, v in runs.files.items()},
         "delay_samples": delays[0],
-        "error_measure": "100 ||y - y_sim|| / ||y|| over the record (closed-loop replay driven by the "
-                         "recorded set point and pulses); per-signal errors skip the first 49 samples",
+        "error_measure": "100 ||y - y_sim|| / ||y|| over the whole record (closed-loop replay driven by "
+                         "the recorded set point and pulses), unless a table says from sample 49",
         "derivatives": "velocity and acceleration of measured and simulated motor position alike: "
                        "4th-order Butterworth 100 Hz, MATLAB-style filtfilt, central differences twice",
         **main_d,
@@ -870,6 +919,7 @@ def build_summary(runs: Runs, by_delay: dict, delays: Sequence[int], lib: dict |
             "candidates_first_step": lib["candidates"], "verdict": lib["verdict"],
             "reason": lib["reason"], "seconds": lib["seconds"],
             "validation_force_error_pct": lib["validation_force_error_pct"],
+            "spring_force_N": lib.get("spring_force_N"),
         }
     if comp is not None:
         out["compliance"] = _plain({k: v for k, v in comp.items() if k != "sims"})
@@ -909,7 +959,7 @@ def markdown(s: dict) -> str:
           "`diagnose(bare, Replay(train, controller), free_plant=('leadscrew.mass',), "
           "only=('viscous_friction', 'coulomb_friction', 'bias_torque'))`: each step adds the best "
           "effect and refits it with the mass and every earlier effect.", ""]
-    hdr = "| step | " + " | ".join(f"force error, delay {k}" for k in s["by_delay"]) + " | M (kg) | Fv (N s/m) | Fc (N) | offset (N) |"
+    hdr = "| step | " + " | ".join(f"force error, delay {k}" for k in s["by_delay"]) + f" | M (kg, delay {s['delay_samples']}) | Fv (N s/m) | Fc (N) | offset (N) |"
     L += [hdr, "|" + "---|" * (5 + len(s["by_delay"]))]
     for i, r in enumerate(d0["ladder"]):
         errs = " | ".join(_pct(s["by_delay"][k]["ladder"][i]["train_force_error_pct"])
@@ -958,8 +1008,29 @@ def markdown(s: dict) -> str:
                   f"{c['effect']} {_pct(c['train_force_error_pct'])}" for c in lib["candidates_first_step"]) + ".", ""]
         first = lib["ladder"][1]["effect"] if len(lib["ladder"]) > 1 else None
         if first and first != d0["ladder"][1]["effect"]:
-            L += [f"**Finding:** unaided, the ladder starts with `{first}` rather than the paper's "
+            L += [f"**Finding:** unaided, the ladder starts with `{first}` rather than "
                   f"`{d0['ladder'][1]['effect']}`; see the numbers above.", ""]
+        stri = next((c for c in lib["candidates_first_step"] if c["effect"].startswith("stribeck")), None)
+        coul = next((c for c in lib["candidates_first_step"] if c["effect"].startswith("coulomb")), None)
+        if stri and coul and stri["train_force_error_pct"] is not None:
+            sp = stri["params"]
+            L += [f"**Finding (Stribeck):** on the first step Stribeck friction fits to "
+                  f"{_pct(stri['train_force_error_pct'], 3)} against Coulomb's {_pct(coul['train_force_error_pct'], 3)}, "
+                  f"with static force {_f(sp.get('static_force'), 3)} N, Coulomb force {_f(sp.get('coulomb_force'), 4)} N, "
+                  f"Stribeck speed {_f(sp.get('stribeck_speed_m_s'), 3)} m/s: "
+                  + ("its breakaway falls below the sliding level, i.e. it reduces to Coulomb friction, and the "
+                     "BIC charges its two extra parameters, so Coulomb wins: the data show no breakaway peak."
+                     if (sp.get('static_force') or 0) <= (sp.get('coulomb_force') or 0) else
+                     "a breakaway above the sliding level; the BIC decides between them.")
+                  + f" (BIC {stri['bic']:.1f} vs {coul['bic']:.1f}.)", ""]
+        sf = lib.get("spring_force_N")
+        if sf:
+            (x0, f0), (x1, f1) = list(sf.items())[0], list(sf.items())[-1]
+            L += [f"**Finding (load spring):** the library's last rung is a `load_spring` relaxed far outside the "
+                  f"travel; on the carriage it is a forward force of {f0:.2f} N at {float(x0) * 1000:.0f} mm and "
+                  f"{f1:.2f} N at {float(x1) * 1000:.0f} mm: it plays the paper's offset ({PAPER_PARAMS['offset_N']} N, "
+                  "a forward push of 3.16 N) with a slight dependence on position, which buys a hair more than a "
+                  "constant force; the constant force is then collinear with it and is rejected.", ""]
 
     # 2. validation
     L += ["## 2. Validation (pulses run)", "",
@@ -1068,8 +1139,9 @@ def markdown(s: dict) -> str:
               "J = m·1e-6 kg m² with lead 2π mm), `shaft_compliance` joins it to the carriage side "
               "(pinion_inertia = the carriage part, where the friction and offset act); M total and the "
               "friction are those fitted on train; stiffness, damping and split are fitted (bounded "
-              "least squares on the closed-loop force, from the best of a grid of modes 15–160 Hz × "
-              "carriage fractions 0.2/0.5/0.8).", "",
+              "least squares on the closed-loop force, from the best of a grid of modes "
+              f"{'/'.join(f'{h:g}' for h in c['grid']['mode_hz'])} Hz × carriage fractions "
+              f"{'/'.join(f'{x:g}' for x in c['grid']['carriage_fraction'])} at ζ = {c['grid']['zeta']:g}).", "",
               "| model | fitted on | mode | ζ | carriage part | train force | train acc. | validation force | validation acc. | validation acc. share after edges |",
               "|---|---|---|---|---|---|---|---|---|---|"]
         r = c["rigid"]
@@ -1102,6 +1174,27 @@ def markdown(s: dict) -> str:
           "; ".join(f"delay {k}: train {_pct(dk['train_force_error_pct'])}, validation "
                     f"{_pct(dk['validation_force_error_pct'])}" for k, dk in s["by_delay"].items()) + ".", "",
           "## Timings", "", ", ".join(f"{k} {v:.1f} s" for k, v in s["timings_s"].items()) + ".", ""]
+    # notes
+    notes = ["## Notes on the code used", ""]
+    st = s.get("start_speed", {}).get("train")
+    if st:
+        notes += [f"- **Replay start state** (`gearbench/identify/replay.py`, `Replay.initial_state`): the records start "
+                  f"in motion and accelerating ({st['acceleration_m_per_s2']:.2f} m/s² on train).  The replay starts the "
+                  f"model at {1000 * st['replay_m_per_s']:.2f} mm/s; a straight line through the first {st['samples']} "
+                  f"samples gives {1000 * st['linear_fit_m_per_s']:.2f} mm/s (the speed ~10 ms in), a quadratic "
+                  f"{1000 * st['quadratic_fit_m_per_s']:.2f} mm/s (the speed at t = 0).  " +
+                  ("The replay's start is too fast: the controller brakes for the first tens of ms, which is the "
+                   "large early residual (section 4); a quadratic fit there (`local_fit(..., degree=2)`) removes it."
+                   if abs(st["replay_m_per_s"] - st["quadratic_fit_m_per_s"]) > 0.2 * abs(st["quadratic_fit_m_per_s"])
+                   else "The replay's start speed agrees with the quadratic estimate.")]
+    if s.get("carriage_force_negative_left_out"):
+        notes += ["- **Asymmetric Coulomb friction at the carriage** (`gearbench/plant/effects/base.py`, "
+                  "`Effect.fit_params`): an optional parameter counts as given only under its rotational name "
+                  "(`torque_negative`), so `Free.effect` leaves a carriage `force_negative` out of a fit.  This "
+                  "study adds it itself (`frees_of`)."]
+    notes.append("")
+    L += notes
+
     return "\n".join(L)
 
 
