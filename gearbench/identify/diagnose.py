@@ -22,7 +22,6 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 import multiprocessing as mp
 
-import numpy as np
 
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect

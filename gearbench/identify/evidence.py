@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..measure.phases import classify_phases, error_shares, smoothed_speed
-from . import signals as S
 
 FEATURES = {  # what the residual follows -> what that points to
     "sign of the speed": "friction that changes sign with the motion, or a clearance taken up on reversal",

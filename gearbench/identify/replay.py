@@ -14,7 +14,7 @@ while the speeds, current and mesh state run on from the previous window.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 

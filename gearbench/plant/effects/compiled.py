@@ -7,7 +7,7 @@ always positive, so no branch is needed to skip them).
 import numba as nb
 
 from ... import layout as L
-from . import (amplifier_deadzone, bias_torque, coulomb_friction, load_spring,
+from . import (amplifier_deadzone, coulomb_friction, load_spring,
                stribeck_friction, viscous_friction)
 
 
