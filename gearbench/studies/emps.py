@@ -166,8 +166,9 @@ def moving_mass(plant: Plant) -> float:
 
 def rigid_plant(params: Mapping[str, float], bare: Plant | None = None) -> Plant:
     """The bare plant with the paper's model: ``mass_kg`` (the whole moving mass, so the
-    carriage gets it less the bare rotor's 1 g), ``viscous_Ns_per_m``, ``coulomb_N``, ``offset_N`` (= minus the carriage force), or
-    the asymmetric ``viscous_pos/neg_Ns_per_m``, ``coulomb_pos/neg_N``.  Absent keys: no effect."""
+    carriage gets it less the bare rotor's 1 g), ``viscous_Ns_per_m``, ``coulomb_N``,
+    ``offset_N`` (= minus the carriage force), or the asymmetric ``viscous_pos/neg_Ns_per_m``,
+    ``coulomb_pos/neg_N``.  Absent keys: no effect."""
     p = bare if bare is not None else bare_plant()
     p = replace(p, effects=())
     others = moving_mass(p) - p.leadscrew.mass
