@@ -152,3 +152,4 @@ STATUS_TEXT = {
 
 METHOD_ROSENBROCK = 0  # ode23s: L-stable Rosenbrock 2(3), Shampine & Reichelt 1997
 METHOD_DOPRI = 1       # Dormand-Prince 5(4), explicit
+METHOD_RODAS4 = 2      # RODAS: L-stable, stiffly accurate Rosenbrock 4(3), Hairer & Wanner

@@ -19,7 +19,7 @@ from .plant.pack import pack_plant, rest_state, tolerance_scales
 from .solver.integrate import integrate
 
 METHODS = {"rosenbrock23": L.METHOD_ROSENBROCK, "ode23s": L.METHOD_ROSENBROCK,
-           "dopri5": L.METHOD_DOPRI, "ode45": L.METHOD_DOPRI}
+           "dopri5": L.METHOD_DOPRI, "ode45": L.METHOD_DOPRI, "rodas4": L.METHOD_RODAS4}
 
 
 class Segments(NamedTuple):

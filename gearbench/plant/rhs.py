@@ -23,13 +23,16 @@ The effects (``plant/effects``) add ``Tm_e(w_m)`` on the rotor, ``Te(theta_l,
 w_l)`` on the load, and map the command to the motor voltage.
 """
 import numba as nb
+import numpy as np
 
 from ..control.laws import command, control_error, saturate
-from ..layout import (CTRL_OPEN, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, P_BL, P_BM, P_CTRL,
+from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, P_BL, P_BM, P_CTRL,
                       P_DMESH, P_DRIVE_GAIN, P_DS, P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE,
                       P_KMESH, P_KS, P_KT, P_L, P_LAW, P_N, P_R, P_RIGID, P_TF, P_TORQUE_IN,
                       P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
-                      X_ZD, X_ZI)
+                      X_ZD, X_ZI, N_DYN, N_STATE, LAW_ELASTO, P_COUL_M, P_COUL_M_NEG,
+                      P_COUL_L, P_COUL_L_NEG, P_STR_TS_M, P_STR_TC_M, P_STR_TS_L, P_STR_TC_L,
+                      P_DEADZONE, P_VISC_M, P_VISC_M_NEG, P_VISC_L, P_VISC_L_NEG)
 from .contact import engaged_torque
 from .effects.compiled import input_voltage, load_torque, motor_torque
 
@@ -137,3 +140,103 @@ def rhs(x, p, modes, ref, out):
     err = ref - load_angle(x, p)
     out[X_IAE] = abs(err)
     out[X_ISE] = err * err
+
+
+@nb.njit(cache=True)
+def feedback_states(p):
+    """The states whose value ``rhs`` reads for this plant and controller, first,
+    then the rest; returns ``(order, count)``.
+
+    The rest feed nothing back, so their Jacobian columns are exactly zero and
+    an implicit step handles them by substitution, like quadratures: the error
+    integrals, a shaft's twist and pinion speed without a shaft, the mesh and
+    load states of a rigid gear (the load rides on the pinion), the integrator
+    unless the controller is PI or PID, the derivative filter unless PID.
+    """
+    order = np.empty(N_STATE, dtype=np.int64)
+    na = 0
+    for i in range(N_STATE):
+        used = i < N_DYN
+        if i == X_PHI or i == X_WP:
+            used = p[P_HAS_SHAFT] > 0.0
+        elif i == X_DELTA or i == X_WL:
+            used = p[P_RIGID] == 0.0
+        elif i == X_I:
+            used = p[P_TORQUE_IN] == 0.0
+        elif i == X_ZI:
+            used = p[P_CTRL] == CTRL_PI or p[P_CTRL] == CTRL_PID
+        elif i == X_ZD:
+            used = p[P_CTRL] == CTRL_PID
+        if used:
+            order[na] = i
+            na += 1
+    nb_ = na
+    for i in range(N_STATE):
+        found = False
+        for a in range(nb_):
+            if order[a] == i:
+                found = True
+        if not found:
+            order[na] = i
+            na += 1
+    return order, nb_
+
+
+@nb.njit(cache=True)
+def piecewise_linear(p):
+    """True when ``rhs`` is affine in the state inside each mode and each
+    ``linear_region``: the Dubowsky or linear contact law, and no effect with a
+    curved or sign-dependent law (friction, an asymmetric viscous term, an
+    amplifier dead zone).  Its Jacobian is then constant there, and a
+    Jacobian taken once serves every step until the region changes.
+    """
+    if p[P_LAW] == LAW_ELASTO:
+        return False
+    for slot in (P_COUL_M, P_COUL_M_NEG, P_COUL_L, P_COUL_L_NEG, P_STR_TS_M, P_STR_TC_M,
+                 P_STR_TS_L, P_STR_TC_L, P_DEADZONE):
+        if p[slot] != 0.0:
+            return False
+    return p[P_VISC_M] == p[P_VISC_M_NEG] and p[P_VISC_L] == p[P_VISC_L_NEG]
+
+
+@nb.njit(cache=True)
+def linear_region(x, p, modes, ref):
+    """Which side of the amplifier's limits the command is on (-1, 0, +1): the
+    only kink of a ``piecewise_linear`` right-hand side inside a mode, apart
+    from the error quadratures (see ``quadrature_rows``)."""
+    kind = p[P_CTRL]
+    if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
+        return 0
+    u = command(x, p, modes, ref, kind)
+    if p[P_TORQUE_IN] == 0.0:
+        u = input_voltage(p, u)
+    vmax = p[P_VMAX]
+    return 1 if u >= vmax else (-1 if u <= -vmax else 0)
+
+
+@nb.njit(cache=True)
+def quadrature_rows(x, p, ref, slope, order, na, jac, tdot):
+    """Write the error quadratures' rows of the Jacobian exactly: with
+    ``e = r - theta_l``, ``theta_l = (theta_m - phi)/N - delta``,
+    d|e|/dx = -sign(e) d theta_l/dx and d e^2/dx = -2 e d theta_l/dx, and
+    through the set point's slope d|e|/dt = sign(e) slope, d e^2/dt = 2 e slope.
+    They are not affine in the state, so a reused Jacobian takes them fresh."""
+    kind = p[P_CTRL]
+    if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
+        return
+    e = ref - load_angle(x, p)
+    sg = 1.0 if e > 0.0 else (-1.0 if e < 0.0 else 0.0)
+    for a in range(na):
+        j = order[a]
+        if j == X_THM:
+            dl = 1.0 / p[P_N]
+        elif j == X_PHI:
+            dl = -1.0 / p[P_N]
+        elif j == X_DELTA:
+            dl = -1.0
+        else:
+            dl = 0.0
+        jac[a, X_IAE] = -sg * dl
+        jac[a, X_ISE] = -2.0 * e * dl
+    tdot[X_IAE] = sg * slope
+    tdot[X_ISE] = 2.0 * e * slope

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..control.laws import command, saturate
 from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_REF_SLOPE, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
-                      METHOD_ROSENBROCK, N_DYN, N_GUARDS, N_MODES,
+                      METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
                       P_CTRL, P_VMAX, S_EVENTS, S_FEVALS, S_IAE, S_IMPACTS,
@@ -22,14 +22,25 @@ from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_
                       S_SWITCHES, S_T_FAIL, S_T_SAT, STATUS_MAX_STEPS,
                       STATUS_NONFINITE, STATUS_STEP_TOO_SMALL, X_I, X_IAE,
                       X_ISE, X_DELTA, X_THM, X_WL, X_WM)
-from ..plant.rhs import applied_input, load_angle, mesh_rate, mesh_torque, rhs
+from ..plant.rhs import (applied_input, feedback_states, linear_region, load_angle, mesh_rate, mesh_torque,
+                         piecewise_linear, quadrature_rows, rhs)
 from .events import apply_event, classify, classify_bangbang, direction_of_segment, guards
-from .steppers import dopri5, hermite, rosenbrock23
+from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
 
 
 @nb.njit(cache=True)
 def _sign(v):
     return 1 if v > 0.0 else (-1 if v < 0.0 else 0)
+
+
+@nb.njit(cache=True)
+def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn):
+    """One step of the chosen method (``layout.METHOD_*``): (error norm, rhs evaluations)."""
+    if method == METHOD_RODAS4:
+        return rodas4(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
+    if method == METHOD_DOPRI:
+        return dopri5(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
+    return rosenbrock23(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
 
 
 @nb.njit(cache=True)
@@ -161,8 +172,17 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     xn = np.empty(n)
     fn = np.empty(n)
     xi = np.empty(n)
-    ws = np.empty((8 + 2 * N_DYN, n))
-    piv = np.empty(N_DYN, dtype=np.int64)
+    ws = np.empty((WS_ROWS, n))
+    order, na = feedback_states(p)
+    lin = (np.empty((na, n)), np.empty((na, na)), np.empty(na, dtype=np.int64), order, np.empty(n))
+    # The Jacobian is taken again only when it may have changed: never for a
+    # step re-taken from the same point (after a rejection, or to land on an
+    # event), and for a piecewise-linear right-hand side only when the mode,
+    # the segment or the saturation side changes (it is constant in between).
+    implicit = method != METHOD_DOPRI
+    linear = piecewise_linear(p)
+    jac_ok = False
+    jac_region = 0
     g0 = np.empty(N_GUARDS)
     g1 = np.empty(N_GUARDS)
     gt = np.empty(N_GUARDS)
@@ -183,8 +203,8 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     c_prev = 0.0
     seg_u = np.zeros(seg_t.size)
     keyed = closed and p[P_SHIFT] > 0.0 and p[P_COMP] != COMP_THESIS
-    rosen = method == METHOD_ROSENBROCK
-    order_exp = 1.0 / 3.0 if rosen else 1.0 / 5.0
+    # step-size exponent: 1 / (order of the error estimate + 1)
+    order_exp = 1.0 / 3.0 if method == METHOD_ROSENBROCK else (0.25 if method == METHOD_RODAS4 else 0.2)
 
     t = 0.0
     u0 = p[P_CTRL_GAIN] * seg_d[0] if sampled else seg_v[0]
@@ -237,6 +257,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             max_err = max(max_err, abs(v0 - load_angle(x, p)))
         rhs(x, p, modes, v0, f)
         nfe += 1
+        jac_ok = False
         while t < tb:
             if nsteps + nrej + nev > max_steps:  # events too: no loop may spin without end
                 status = STATUS_MAX_STEPS
@@ -246,10 +267,14 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             if last:
                 hh = tb - t
             ref_t = v0 + s * (t - ta)
-            if rosen:
-                err, ne = rosenbrock23(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
-            else:
-                err, ne = dopri5(t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
+            if implicit:
+                region = linear_region(x, p, modes, ref_t) if linear else 0
+                if not jac_ok or region != jac_region:
+                    nfe += jacobian(t, x, f, p, modes, ref_t, s, scale, lin, ws[0], ws[1])
+                    jac_ok = True
+                    jac_region = region
+                quadrature_rows(x, p, ref_t, s, lin[3], lin[1].shape[0], lin[0], lin[4])
+            err, ne = _step(method, t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
             nfe += ne
             if not (err <= 1.0):
                 nrej += 1
@@ -302,10 +327,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                 if hs < 1e-13 * max(1.0, abs(t)):
                     hs = 0.0
                 elif theta < 1.0:
-                    if rosen:
-                        err, ne = rosenbrock23(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
-                    else:
-                        err, ne = dopri5(t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, piv, xn, fn)
+                    err, ne = _step(method, t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
                     nfe += ne
                     # The root was found on the long step's interpolant, whose
                     # error is not controlled; the re-taken step can end short
@@ -341,6 +363,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                     f[i] = fn[i]
                 t = t1
                 nsteps += 1
+                jac_ok = jac_ok and linear
                 ok = True
                 for i in range(n):
                     if not math.isfinite(x[i]):
@@ -359,6 +382,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                     impacts += _resolved_impact(x, p, modes, atol)
                 rhs(x, p, modes, v0 + s * (t - ta), f)
                 nfe += 1
+                jac_ok = False
                 if (hh == 0.0 and modes[M_CONTACT] == m_contact and modes[M_BB] == m_bb
                         and modes[M_SHIFT] == m_shift):
                     # Refused where it stands (a separation whose torque rate
@@ -396,6 +420,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                     nev += 1
                     rhs(x, p, modes, ref_now, f)
                     nfe += 1
+                    jac_ok = False
             # The controller's modes go stale the same way (a bang-bang switch
             # or a shift flip whose crossing a step hid): a bang-bang stuck on
             # drives the motor away at full voltage.  Their right mode follows
@@ -408,6 +433,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                 nev += 1
                 rhs(x, p, modes, ref_now, f)
                 nfe += 1
+                jac_ok = False
             sg = _sign(applied_input(x, p, modes, v0 + s * (t - ta)))
             if sg != last_sign:
                 switches += 1

@@ -8,20 +8,28 @@ accepting, rejecting and choosing the next step is the controller's job
   while the teeth stay in contact.  The Jacobian is taken by finite differences
   over the dynamic states (the quadratures feed nothing back, so the linear
   system is block lower-triangular and only the dynamic block is factored).
+* ``rodas4``: the L-stable, stiffly accurate Rosenbrock method RODAS of
+  Hairer & Wanner (Solving ODEs II, section IV.7; coefficients of their
+  ``rodas.f``, method 1): fourth order, six stages, an embedded third-order
+  solution for the error estimate.  Per step it costs the same Jacobian and one
+  LU as ``rosenbrock23`` and four more right-hand sides, but its error falls
+  as h^4 instead of h^2, so it needs far fewer steps at tight tolerances and
+  its global error shrinks ~10x per decade of tolerance (ode23s: 4.6x).
 * ``dopri5``: Dormand & Prince 5(4), explicit, for cross-checks (it pays for
   the mesh frequency at every step).
 
-Both return the derivative at the step's end, so the step's cubic Hermite
+All return the derivative at the step's end, so the step's cubic Hermite
 interpolant can locate events and sample the output.
 """
 import math
 
 import numba as nb
 
-from ..layout import N_DYN, N_STATE
-from ..plant.rhs import rhs
+from ..layout import N_STATE
+from ..plant.rhs import linear_region, rhs
 
 EPS = 2.220446049250313e-16
+WS_ROWS = 11  # scratch vectors every stepper fits in
 D_ROS = 1.0 / (2.0 + math.sqrt(2.0))
 E32 = 6.0 + math.sqrt(2.0)
 
@@ -102,41 +110,41 @@ def hermite(theta, h, y0, f0, y1, f1, out):
 
 
 @nb.njit(cache=True)
-def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, piv, ynew, fnew):
-    """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
+def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
+    """Forward-difference Jacobian over the feedback states ``order[:na]``:
+    ``jac[a, i] = d f_i / d y_order[a]``.  The other states (the quadratures,
+    and dynamic states this plant and controller never read: a shaft's twist
+    without a shaft, the integrator of a P controller) feed nothing back, so
+    their columns are exactly zero and are not evaluated.  Also the time
+    derivative ``tdot = d f / d t`` through the set point's slope.
 
-    ``ref(t) = ref0 + slope (t - t_seg)`` enters through ``ref0`` (the value at
-    ``t``) and ``slope``.  Writes the new state and its derivative into
-    ``ynew``/``fnew`` and returns ``(error norm, rhs evaluations)``.
-    ``ws`` is a (8 + 2 N_DYN, N_STATE) scratch array, ``piv`` an int scratch of N_DYN.
-    """
+    A difference never straddles the amplifier's limit: where the forward
+    point lies on the other side (``linear_region``), the backward one is
+    used, so the Jacobian is that of the piece the step starts on (a reused
+    Jacobian that mixed two pieces would spoil every step after it).
+    Writes ``lin``'s ``jac`` and ``tdot``; returns the right-hand-side
+    evaluations spent."""
+    jac, w, piv, order, tdot = lin
     n = N_STATE
-    nd = N_DYN
-    d = D_ROS
-    hd = h * d
-    ytmp = ws[0]
-    ftmp = ws[1]
-    tdot = ws[2]
-    k1 = ws[3]
-    k2 = ws[4]
-    k3 = ws[5]
-    f1 = ws[6]
-    rhsv = ws[7]
-    jac = ws[8:8 + nd]  # jac[j, i] = d f_i / d y_j  (row j: column j of J)
-    # Jacobian by forward differences over the dynamic states
-    for j in range(nd):
+    na = w.shape[0]
+    region = linear_region(y, p, modes, ref0)
+    for a in range(na):
+        j = order[a]
         for i in range(n):
             ytmp[i] = y[i]
         dy = math.sqrt(EPS) * max(abs(y[j]), scale[j])
         ytmp[j] = y[j] + dy
+        if linear_region(ytmp, p, modes, ref0) != region:
+            ytmp[j] = y[j] - dy
         dy = ytmp[j] - y[j]
         rhs(ytmp, p, modes, ref0, ftmp)
         for i in range(n):
-            jac[j, i] = (ftmp[i] - f0[i]) / dy
-    # time derivative through the set point
-    nfe = nd
+            jac[a, i] = (ftmp[i] - f0[i]) / dy
+    nfe = na
     if slope != 0.0:
         dt = math.sqrt(EPS) * max(abs(t), 1.0)
+        if linear_region(y, p, modes, ref0 + slope * dt) != region:
+            dt = -dt
         rhs(y, p, modes, ref0 + slope * dt, ftmp)
         nfe += 1
         for i in range(n):
@@ -144,50 +152,184 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, piv,
     else:
         for i in range(n):
             tdot[i] = 0.0
-    w = ws[8 + nd:8 + 2 * nd, :nd]
-    for i in range(nd):
-        for j in range(nd):
-            w[i, j] = -hd * jac[j, i]
-        w[i, i] += 1.0
+    return nfe
+
+
+@nb.njit(cache=True)
+def _factor(jac, order, diag, w, piv):
+    """LU of ``W = diag I - J`` restricted to the feedback states (``w`` is na x na)."""
+    na = w.shape[0]
+    for a in range(na):
+        for b in range(na):
+            w[a, b] = -jac[b, order[a]]
+        w[a, a] += diag
     lu_factor(w, piv)
+
+
+@nb.njit(cache=True)
+def _solve(w, piv, jac, order, diag, b, z, out):
+    """Solve ``(diag I - J) out = b``.  The feedback block is ``W`` (factored by
+    ``_factor``); the other rows are ``diag out_q - sum_a J[q, a] out_a = b_q``
+    (their own columns are zero), solved by substitution.  ``z`` is scratch."""
+    na = w.shape[0]
+    for a in range(na):
+        z[a] = b[order[a]]
+    for k in range(na):  # the row swaps of lu_factor, then L y = P b, U z = y
+        m = piv[k]
+        if m != k:
+            tmp = z[k]
+            z[k] = z[m]
+            z[m] = tmp
+    for i in range(na):
+        s = z[i]
+        for j in range(i):
+            s -= w[i, j] * z[j]
+        z[i] = s
+    for i in range(na - 1, -1, -1):
+        s = z[i]
+        for j in range(i + 1, na):
+            s -= w[i, j] * z[j]
+        z[i] = s / w[i, i]
+    for a in range(na):
+        out[order[a]] = z[a]
+    inv = 1.0 / diag
+    for c in range(na, N_STATE):
+        q = order[c]
+        s = b[q]
+        for a in range(na):
+            s += jac[a, q] * z[a]
+        out[q] = inv * s
+
+
+@nb.njit(cache=True)
+def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew):
+    """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
+
+    ``ref(t) = ref0 + slope (t - t_seg)`` enters through ``ref0`` (the value at
+    ``t``) and ``slope``.  Writes the new state and its derivative into
+    ``ynew``/``fnew`` and returns ``(error norm, rhs evaluations)``.
+    ``ws`` is a (WS_ROWS, N_STATE) scratch array; ``lin = (jac, w, piv,
+    order, tdot)`` holds the Jacobian and ``d f/d t`` of ``jacobian`` (taken by
+    the caller, who decides when it can be reused) and the LU scratch.
+    """
+    jac, w, piv, order, tdot = lin
+    n = N_STATE
+    hd = h * D_ROS
+    ytmp = ws[0]
+    ftmp = ws[1]
+    k1 = ws[3]
+    k2 = ws[4]
+    k3 = ws[5]
+    f1 = ws[6]
+    rhsv = ws[7]
+    z = ws[10]
+    # W = I - h d J, written as (1/(h d)) I - J to share the solver with RODAS
+    diag = 1.0 / hd
+    _factor(jac, order, diag, w, piv)
     # k1 = W^-1 (f0 + h d T)
     for i in range(n):
-        rhsv[i] = f0[i] + hd * tdot[i]
-    _block_solve(w, piv, jac, hd, rhsv, k1)
+        rhsv[i] = (f0[i] + hd * tdot[i]) * diag
+    _solve(w, piv, jac, order, diag, rhsv, z, k1)
     for i in range(n):
         ytmp[i] = y[i] + 0.5 * h * k1[i]
     rhs(ytmp, p, modes, ref0 + slope * 0.5 * h, f1)
     # k2 = W^-1 (f1 - k1) + k1
     for i in range(n):
-        rhsv[i] = f1[i] - k1[i]
-    _block_solve(w, piv, jac, hd, rhsv, k2)
+        rhsv[i] = (f1[i] - k1[i]) * diag
+    _solve(w, piv, jac, order, diag, rhsv, z, k2)
     for i in range(n):
         k2[i] += k1[i]
         ynew[i] = y[i] + h * k2[i]
     rhs(ynew, p, modes, ref0 + slope * h, fnew)
     # k3 = W^-1 (f2 - e32 (k2 - f1) - 2 (k1 - f0) + h d T)
     for i in range(n):
-        rhsv[i] = fnew[i] - E32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f0[i]) + hd * tdot[i]
-    _block_solve(w, piv, jac, hd, rhsv, k3)
+        rhsv[i] = (fnew[i] - E32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f0[i]) + hd * tdot[i]) * diag
+    _solve(w, piv, jac, order, diag, rhsv, z, k3)
     for i in range(n):
         ftmp[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
-    return error_norm(ftmp, y, ynew, rtol, atol), nfe + 2
+    return error_norm(ftmp, y, ynew, rtol, atol), 2
+
+
+# RODAS (Hairer & Wanner, rodas.f, METH = 1), in the form W = I/(gamma h) - J:
+# stage i solves W k_i = f(t + c_i h, y + sum_j a_ij k_j) + h d_i f_t + sum_j c_ij k_j / h,
+# and y_new = y + sum_j a_6j k_j + k_6 (stiffly accurate); k_6 is the error estimate.
+R_GAMMA = 0.25
+R_C2, R_C3, R_C4 = 0.386, 0.21, 0.63
+R_D1, R_D2, R_D3, R_D4 = 0.25, -0.1043, 0.1035, -0.03620000000000023
+R_A21 = 1.544
+R_A31, R_A32 = 0.9466785280815826, 0.2557011698983284
+R_A41, R_A42, R_A43 = 3.314825187068521, 2.896124015972201, 0.9986419139977817
+R_A51, R_A52, R_A53, R_A54 = 1.221224509226641, 6.019134481288629, 12.53708332932087, -0.687886036105895
+R_C21 = -5.6688
+R_C31, R_C32 = -2.430093356833875, -0.2063599157091915
+R_C41, R_C42, R_C43 = -0.1073529058151375, -9.594562251023355, -20.47028614809616
+R_C51, R_C52, R_C53, R_C54 = 7.496443313967647, -10.24680431464352, -33.99990352819905, 11.7089089320616
+R_C61, R_C62, R_C63, R_C64, R_C65 = (8.083246795921522, -7.981132988064893, -31.52159432874371,
+                                     16.31930543123136, -6.058818238834054)
 
 
 @nb.njit(cache=True)
-def _block_solve(w, piv, jac, hd, b, out):
-    """Solve ``[[W, 0], [-hd Jq, I]] z = b`` for the dynamic block ``W``."""
+def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew):
+    """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
+    jac, w, piv, order, tdot = lin
     n = N_STATE
-    nd = N_DYN
+    ytmp = ws[0]
+    ftmp = ws[1]
+    k1 = ws[3]
+    k2 = ws[4]
+    k3 = ws[5]
+    k4 = ws[6]
+    k5 = ws[7]
+    k6 = ws[8]
+    rhsv = ws[9]
+    z = ws[10]
+    diag = 1.0 / (R_GAMMA * h)
+    _factor(jac, order, diag, w, piv)
+    hinv = 1.0 / h
     for i in range(n):
-        out[i] = b[i]
-    z = out[:nd]
-    lu_solve(w, piv, z)
-    for i in range(nd, n):
-        s = out[i]
-        for j in range(nd):
-            s += hd * jac[j, i] * z[j]
-        out[i] = s
+        rhsv[i] = f0[i] + h * R_D1 * tdot[i]
+    _solve(w, piv, jac, order, diag, rhsv, z, k1)
+    # stage 2
+    for i in range(n):
+        ytmp[i] = y[i] + R_A21 * k1[i]
+    rhs(ytmp, p, modes, ref0 + slope * R_C2 * h, ftmp)
+    for i in range(n):
+        rhsv[i] = ftmp[i] + h * R_D2 * tdot[i] + hinv * R_C21 * k1[i]
+    _solve(w, piv, jac, order, diag, rhsv, z, k2)
+    # stage 3
+    for i in range(n):
+        ytmp[i] = y[i] + R_A31 * k1[i] + R_A32 * k2[i]
+    rhs(ytmp, p, modes, ref0 + slope * R_C3 * h, ftmp)
+    for i in range(n):
+        rhsv[i] = ftmp[i] + h * R_D3 * tdot[i] + hinv * (R_C31 * k1[i] + R_C32 * k2[i])
+    _solve(w, piv, jac, order, diag, rhsv, z, k3)
+    # stage 4
+    for i in range(n):
+        ytmp[i] = y[i] + R_A41 * k1[i] + R_A42 * k2[i] + R_A43 * k3[i]
+    rhs(ytmp, p, modes, ref0 + slope * R_C4 * h, ftmp)
+    for i in range(n):
+        rhsv[i] = ftmp[i] + h * R_D4 * tdot[i] + hinv * (R_C41 * k1[i] + R_C42 * k2[i] + R_C43 * k3[i])
+    _solve(w, piv, jac, order, diag, rhsv, z, k4)
+    # stage 5 (at t + h)
+    ref1 = ref0 + slope * h
+    for i in range(n):
+        ytmp[i] = y[i] + R_A51 * k1[i] + R_A52 * k2[i] + R_A53 * k3[i] + R_A54 * k4[i]
+    rhs(ytmp, p, modes, ref1, ftmp)
+    for i in range(n):
+        rhsv[i] = ftmp[i] + hinv * (R_C51 * k1[i] + R_C52 * k2[i] + R_C53 * k3[i] + R_C54 * k4[i])
+    _solve(w, piv, jac, order, diag, rhsv, z, k5)
+    # stage 6: from the embedded (third-order) solution to the fourth-order one
+    for i in range(n):
+        ytmp[i] += k5[i]
+    rhs(ytmp, p, modes, ref1, ftmp)
+    for i in range(n):
+        rhsv[i] = ftmp[i] + hinv * (R_C61 * k1[i] + R_C62 * k2[i] + R_C63 * k3[i] + R_C64 * k4[i]
+                                    + R_C65 * k5[i])
+    _solve(w, piv, jac, order, diag, rhsv, z, k6)
+    for i in range(n):
+        ynew[i] = ytmp[i] + k6[i]
+    rhs(ynew, p, modes, ref1, fnew)
+    return error_norm(k6, y, ynew, rtol, atol), 6
 
 
 # Dormand-Prince 5(4) tableau
@@ -203,7 +345,7 @@ C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
 @nb.njit(cache=True)
-def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, piv, ynew, fnew):
+def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
     n = N_STATE
     k2 = ws[0]
