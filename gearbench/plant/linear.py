@@ -142,10 +142,6 @@ def _mode_of(osc: list[dict], state: str) -> dict | None:
     return best
 
 
-STEADY_FRICTION = ("coulomb_friction", "stribeck_friction", "viscous_friction", "bias_torque")
-"""Effects that act in steady forward motion and so enter :func:`steady_drag`."""
-
-
 def steady_drag(plant: Plant) -> tuple[float, float]:
     """What resists steady forward motion, reflected to the motor shaft.
 
@@ -170,7 +166,7 @@ def steady_drag(plant: Plant) -> tuple[float, float]:
     a ``bias_torque``, positive forward, so it helps.  ``N`` is the gear
     ratio and ``r = lead / 2 pi`` (m/rad).  The sign regularisation of the
     compiled friction (``tanh(w/eps)``, ``eps`` ~1e-5 of the typical speed)
-    is 1 to many digits at such speeds and is ignored.  Position-dependent
+    equals 1 to many digits at such speeds and is ignored.  Position-dependent
     effects (``load_spring``) and the ``amplifier_deadzone`` are left out:
     there is no single steady state with a spring, and whether the dead zone
     lowers the top speed depends on the command (a controller's command
