@@ -110,7 +110,46 @@ def test_leadscrew_top_speed():
     assert info["top_speed_in_s"] == pytest.approx(info["top_speed_mm_s"] / 25.4)
 
 
-@pytest.mark.parametrize("plant", [SAMPLE, SHAFT], ids=["rigid", "shaft"])
+def _friction_plant():
+    """A leadscrew plant with every steady-motion effect; lead 2 pi mm makes r = 1e-3 m/rad."""
+    from gearbench.plant.effects import AddedEffect as E
+    base = Plant(MOTOR, Gear(10.0, 3.0, 2.4e7, 3.4), Load(5.0e-5, 1.0e-3), name="friction",
+                 leadscrew=Leadscrew(lead_mm=2 * math.pi, mass=0.5, damping=100.0))
+    return base.with_effects(
+        E("coulomb_friction", {"location": "motor", "torque": 0.004}),
+        E("coulomb_friction", {"location": "carriage", "force": 20.0, "force_negative": 5.0}),
+        E("stribeck_friction", {"location": "load", "static_torque": 0.05, "coulomb_torque": 0.03,
+                                "stribeck_speed": 0.5}),
+        E("viscous_friction", {"location": "motor", "coefficient": 1.0e-6}),
+        E("viscous_friction", {"location": "load", "coefficient": 9.0e-4}),
+        E("viscous_friction", {"location": "carriage", "coefficient": 100.0}),
+        E("bias_torque", {"location": "carriage", "force": -10.0}))
+
+
+FRICTION = _friction_plant()
+
+
+def test_top_speed_with_friction_effects_by_hand():
+    """kt (V - ke w) / R = b w + T0 at the motor, worked by hand (r = 1e-3 m/rad, N = 10):
+    b  = bm 1e-6 + c_m 1e-6 + (bl 1e-3 + slide 100 r^2 + c_l 9e-4 + c_c 100 r^2) / 10^2
+       = 2e-6 + 2.1e-3 / 100 = 2.3e-5 N m s/rad;
+    T0 = Tc_m 0.004 + (F_c 20 r + Stribeck's Tc 0.03 + bias -(-10 r)) / 10 = 0.010 N m
+    (the forward Coulomb level; the backward 5 N does not enter);
+    w  = (0.02 * 12 - 2.5 * 0.010) / (2.5 * 2.3e-5 + 0.02 * 0.02) = 0.215 / 4.575e-4
+       = 469.945 rad/s; carriage 469.945 / 10 * 1e-3 m/s = 46.9945 mm/s."""
+    info = plant_info(FRICTION)
+    assert info["drag_coefficient_Nm_s_rad"] == pytest.approx(2.3e-5)
+    assert info["drag_torque_Nm"] == pytest.approx(0.010)
+    assert info["no_load_speed_rad_s"] == pytest.approx(469.945355, rel=1e-8)
+    assert info["top_speed_mm_s"] == pytest.approx(46.9945355, rel=1e-8)
+    assert info["top_speed_in_s"] == pytest.approx(46.9945355 / 25.4, rel=1e-8)
+    # friction the motor cannot overcome holds it: T0 = 0.010 + 1.0 / 10 = 0.11 N m > kt V / R = 0.096
+    from gearbench.plant.effects import AddedEffect
+    stuck = FRICTION.with_effects(AddedEffect("coulomb_friction", {"location": "load", "torque": 1.0}))
+    assert plant_info(stuck)["no_load_speed_rad_s"] == 0.0
+
+
+@pytest.mark.parametrize("plant", [SAMPLE, SHAFT, FRICTION], ids=["rigid", "shaft", "friction"])
 def test_no_load_speed_matches_simulation(plant):
     vmax = plant.motor.max_voltage
     run = simulate(plant, Controller("open"),

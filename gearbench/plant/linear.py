@@ -142,6 +142,79 @@ def _mode_of(osc: list[dict], state: str) -> dict | None:
     return best
 
 
+def steady_drag(plant: Plant) -> tuple[float, float]:
+    """What resists steady forward motion, reflected to the motor shaft.
+
+    Returns ``(b, T0)``: the viscous coefficient ``b`` (N m s/rad) and the
+    constant torque ``T0`` (N m), both at the motor, such that in steady
+    forward motion at motor speed ``w > 0`` the rotor must supply
+    ``b w + T0``::
+
+        b  = bm + c_m + (bl + c_l + c_c r^2) / N^2
+        T0 = Tc_m + (Tc_l + F_c r - T_b) / N
+
+    ``bm`` is ``motor.damping`` and ``bl`` is ``Plant.output_damping``
+    (``load.damping`` plus ``leadscrew.damping r^2``); ``c_m``, ``c_l``
+    (N m s/rad) and ``c_c`` (N s/m) are ``viscous_friction`` coefficients at
+    the motor, the load (output shaft, the screw) and the carriage;
+    ``Tc_m``, ``Tc_l`` (N m) and ``F_c`` (N) the ``coulomb_friction`` levels
+    there (the forward level ``torque``/``force``, since the motion is
+    forward) plus ``stribeck_friction``'s sliding level ``coulomb_torque``
+    (``coulomb_force``): at speed its breakaway excess
+    ``(Ts - Tc) exp(-|w|/ws)`` has decayed (ignored here, so this is exact
+    only for ``|w| >> ws``); ``T_b`` (N m, N at the carriage times ``r``) is
+    a ``bias_torque``, positive forward, so it helps.  ``N`` is the gear
+    ratio and ``r = lead / 2 pi`` (m/rad).  The sign regularisation of the
+    compiled friction (``tanh(w/eps)``, ``eps`` ~1e-5 of the typical speed)
+    equals 1 to many digits at such speeds and is ignored.  Position-dependent
+    effects (``load_spring``) and the ``amplifier_deadzone`` are left out:
+    there is no single steady state with a spring, and whether the dead zone
+    lowers the top speed depends on the command (a controller's command
+    above ``Vmax + v0`` still saturates at ``Vmax``).
+    """
+    from .effects.location import at_shaft
+
+    n = plant.gear.ratio
+    b = {"motor": plant.motor.damping, "load": plant.output_damping}
+    t0 = {"motor": 0.0, "load": 0.0}
+    for e in plant.effects:
+        v = e.values
+        if e.name == "viscous_friction":
+            loc, c = at_shaft(v, plant, "coefficient", 2)
+            b[loc] += c
+        elif e.name == "coulomb_friction":
+            loc, tc = at_shaft(v, plant, "torque", 1)
+            t0[loc] += tc
+        elif e.name == "stribeck_friction":
+            loc, tc = at_shaft(v, plant, "coulomb_torque", 1)
+            t0[loc] += tc
+        elif e.name == "bias_torque":
+            t0["load"] -= at_shaft(v, plant, "torque", 1)[1]
+    return b["motor"] + b["load"] / n ** 2, t0["motor"] + t0["load"] / n
+
+
+def steady_speed(plant: Plant, voltage: float | None = None) -> float:
+    """Steady forward motor speed (rad/s) at a constant ``voltage`` (V; default ``Vmax``).
+
+    The rotor's torque balance with the current settled (``di/dt = 0``)::
+
+        kt (V - ke w) / R = b w + T0
+        =>  w = (kt V - R T0) / (R b + kt ke)
+
+    with ``kt`` (N m/A), ``ke`` (V s/rad), ``R`` (ohm) and ``(b, T0)`` (N m
+    s/rad, N m) from :func:`steady_drag`.  0 when ``T0`` is at least the
+    torque ``kt V / R`` the motor gives at standstill: the friction holds it
+    (with a ``bias_torque`` larger than the friction the true answer would
+    be a backward drift, which this does not report).  Without effects this
+    is ``kt V / (R b + kt ke)``.
+    """
+    m = plant.motor
+    v = m.max_voltage if voltage is None else voltage
+    b, t0 = steady_drag(plant)
+    kt, ke, r = m.torque_constant, m.back_emf_constant, m.resistance
+    return max(0.0, (kt * v - r * t0) / (r * b + kt * ke))
+
+
 def plant_info(plant: Plant) -> dict:
     """Headline figures of a plant, from the engaged linear model and steady state.
 
@@ -160,9 +233,15 @@ def plant_info(plant: Plant) -> dict:
         ``J = Jm (+ Jp) + Jl/N^2`` (viscous damping ignored, as usual);
         ``stall_torque_Nm`` ``kt Vmax / R`` at the motor and
         ``stall_torque_output_Nm`` that times N;
+        ``drag_coefficient_Nm_s_rad`` and ``drag_torque_Nm``: the viscous
+        coefficient ``b`` and the constant torque ``T0`` that resist steady
+        forward motion, at the motor (:func:`steady_drag`: the plant's
+        damping plus its friction effects, reflected through N and the lead);
         ``no_load_speed_rad_s`` / ``no_load_speed_rpm``: steady motor speed at
-        ``Vmax`` with the load attached, ``kt Vmax / (R b + kt ke)``,
-        ``b = bm + bl/N^2``; ``output_top_speed_deg_s`` that over N, in deg/s;
+        ``Vmax`` with the load and its friction attached,
+        ``(kt Vmax - R T0) / (R b + kt ke)`` (:func:`steady_speed`; without
+        effects ``b = bm + bl/N^2`` and ``T0 = 0``);
+        ``output_top_speed_deg_s`` that over N, in deg/s;
         with a leadscrew, ``top_speed_mm_s`` and ``top_speed_in_s``, the
         carriage speed ``w_l lead / 2 pi``;
         ``modes``: every oscillatory engaged mode as a dict with
@@ -175,9 +254,9 @@ def plant_info(plant: Plant) -> dict:
     shaft = _mode_of(osc, "phi") if plant.shaft is not None else None
     j_total = (m.inertia + (plant.shaft.pinion_inertia if plant.shaft is not None else 0.0)
                + plant.output_inertia / n ** 2)
-    b_total = m.damping + plant.output_damping / n ** 2
     kt_ke = m.torque_constant * m.back_emf_constant
-    w0 = m.torque_constant * m.max_voltage / (m.resistance * b_total + kt_ke)
+    b_total, t_drag = steady_drag(plant)
+    w0 = steady_speed(plant)
     info = {
         "ratio": n,
         "clearance_deg": g.backlash_deg,
@@ -189,6 +268,8 @@ def plant_info(plant: Plant) -> dict:
         "mechanical_time_constant_s": m.resistance * j_total / kt_ke,
         "stall_torque_Nm": m.stall_torque,
         "stall_torque_output_Nm": m.stall_torque * n,
+        "drag_coefficient_Nm_s_rad": b_total,
+        "drag_torque_Nm": t_drag,
         "no_load_speed_rad_s": w0,
         "no_load_speed_rpm": w0 * 60.0 / (2.0 * math.pi),
         "output_top_speed_deg_s": math.degrees(w0 / n),

@@ -20,15 +20,28 @@ def translational_frame(runs: pd.DataFrame, plant) -> pd.DataFrame:
 
 
 def translational_markdown(table: pd.DataFrame, title: str, notes: str = "") -> str:
+    """The IAE (mm s) without and with the shift, each with its run's voltage sign
+    changes and contact onsets (impacts), when the runs have them."""
     lines = [f"# {title}", ""]
     if notes:
         lines += [notes.strip(), ""]
-    lines += ["| profile | controller | IAE, no shift (mm s) | IAE, shift (mm s) |", "|---|---|---:|---:|"]
+    counts = {"switchings", "impacts"} <= set(table.columns)
+    if counts:
+        lines += ["| profile | controller | IAE, no shift (mm s) | sign changes | impacts "
+                  "| IAE, shift (mm s) | sign changes | impacts |", "|---|---|" + "---:|" * 6]
+    else:
+        lines += ["| profile | controller | IAE, no shift (mm s) | IAE, shift (mm s) |", "|---|---|---:|---:|"]
     for (prof, ctrl, kp), grp in table.groupby(["profile", "controller", "kp"], sort=False, dropna=False):
         cells = []
         for shift in ("off", "on"):
             row = grp[grp["shift"] == shift]
-            cells.append("" if row.empty else f"{row.iloc[0].iae_mm_s:.4f}")
+            if row.empty:
+                cells += ["", "", ""] if counts else [""]
+                continue
+            r = row.iloc[0]
+            cells.append(f"{r.iae_mm_s:.4f}")
+            if counts:
+                cells += [str(int(r.switchings)), str(int(r.impacts))]
         lines.append(f"| {prof} | {_name(ctrl, kp)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
