@@ -30,7 +30,7 @@ def main() -> None:
               default=Path("results"), show_default=True, help="Folder for the tables and figures.")
 @click.option("--plot", is_flag=True, help="Write a PNG per run (set point, output, motor angle/N, voltage).")
 @click.option("--traces", is_flag=True, help="Write each run's trace CSV in the SPEC's measurement format.")
-@click.option("--method", type=click.Choice(["rosenbrock23", "ode23s", "dopri5", "ode45"]), default=None,
+@click.option("--method", type=click.Choice(["rodas4", "rosenbrock23", "ode23s", "dopri5", "ode45"]), default=None,
               help="Override the experiment's solver method.")
 @click.option("--rtol", type=float, default=None, help="Override the experiment's relative tolerance.")
 def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: str | None,
@@ -82,7 +82,7 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
             if traces:
                 write_csv_atomic(trace_frame(rec.result, exp.plant), out_dir / "traces" / f"{rec.label}.csv")
 
-        records = run_experiment(exp, on_done=done)
+        records = run_experiment(exp, on_done=done, keep_traces=plot or traces)
 
     from .report import variants
     if exp.compensators:

@@ -37,14 +37,15 @@ class Segments(NamedTuple):
 
 @dataclass(frozen=True)
 class SolverOptions:
-    """method: ``rosenbrock23`` (alias ``ode23s``, default, stiff) or ``dopri5``
-    (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
+    """method: ``rodas4`` (default: L-stable Rosenbrock, fourth order),
+    ``rosenbrock23`` (alias ``ode23s``, the thesis's stiff method, second
+    order) or ``dopri5`` (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
     follow from each state's typical scale); max_step_s: largest step, s (events
     inside a step are caught at the interpolant's extrema; the cap is a backstop);
     output_dt_s: sampling interval of the returned trace, s;
     friction_speed_rel: the speed below which friction's sign is regularised
     (``tanh(w/eps)``), relative to each shaft's typical speed."""
-    method: str = "rosenbrock23"
+    method: str = "rodas4"
     rtol: float = 1e-6
     max_step_s: float = 1e-2
     max_steps: int = 20_000_000

@@ -1,8 +1,7 @@
 """`gearbench validate --quick --json`: the JSON shape, and the checks that must pass do pass.
 
 Known failures (measured, documented in results/validation.md) are not asserted to pass:
-the 5x-per-decade convergence (ode23s is 2nd order: at most 10^(2/3) = 4.64x) and the
-solver / shaft agreement on the chaotic shift cells.
+the shaft agreement (and ode23s's agreement) on the chaotic shift cells.
 """
 import json
 from pathlib import Path
@@ -15,7 +14,8 @@ from gearbench.cli import main
 REPO = Path(__file__).resolve().parents[1]
 MUST_PASS = ("restitution, unclipped", "contact duration, unclipped", "restitution, Dubowsky",
              "contact duration, with clip", "Dubowsky impact pair", "energy kept", "energy never rises",
-             "mesh mode", "shaft mode", "run time", "same, against ode23s", "motor steady speed",
+             "mesh mode", "shaft mode", "rodas4 (stiff, default) vs dopri5", "run time",
+             "convergence of profile-3 bang-bang IAE, rodas4", "same with ode23s", "motor steady speed",
              "motor steady current")
 
 
@@ -47,7 +47,7 @@ def test_check_passes(report, prefix):
         assert c["passed"], c
 
 
-def test_convergence_5x_is_reported_honestly(report):
+def test_convergence_ratios_are_the_verdict(report):
     c = next(c for c in report[0]["checks"] if c["name"].startswith("convergence of profile-3"))
-    assert c["expected"] == 5.0 and isinstance(c["measured"], list)
+    assert c["expected"] == 5.0 and isinstance(c["measured"], list) and len(c["measured"]) >= 2
     assert c["passed"] == all(r >= 5.0 for r in c["measured"])

@@ -63,28 +63,6 @@ def lu_factor(a, piv):
 
 
 @nb.njit(cache=True)
-def lu_solve(a, piv, b):
-    """Solve in place with the factors of ``lu_factor``."""
-    n = a.shape[0]
-    for k in range(n):
-        m = piv[k]
-        if m != k:
-            tmp = b[k]
-            b[k] = b[m]
-            b[m] = tmp
-    for i in range(n):
-        s = b[i]
-        for j in range(i):
-            s -= a[i, j] * b[j]
-        b[i] = s
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= a[i, j] * b[j]
-        b[i] = s / a[i, i]
-
-
-@nb.njit(cache=True)
 def error_norm(err, y0, y1, rtol, atol):
     """Max over components of ``|err| / (atol + rtol max(|y0|, |y1|))``."""
     e = 0.0
@@ -157,16 +135,19 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
 
 @nb.njit(cache=True)
 def _factor(jac, order, diag, w, piv):
-    """LU of ``W = diag I - J`` restricted to the feedback states (``w`` is na x na)."""
+    """LU of ``W = diag I - J`` restricted to the feedback states (``w`` is na x
+    na), with U's diagonal stored inverted (``_solve`` multiplies)."""
     na = w.shape[0]
     for a in range(na):
         for b in range(na):
             w[a, b] = -jac[b, order[a]]
         w[a, a] += diag
     lu_factor(w, piv)
+    for a in range(na):
+        w[a, a] = 1.0 / w[a, a]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _solve(w, piv, jac, order, diag, b, z, out):
     """Solve ``(diag I - J) out = b``.  The feedback block is ``W`` (factored by
     ``_factor``); the other rows are ``diag out_q - sum_a J[q, a] out_a = b_q``
@@ -189,7 +170,7 @@ def _solve(w, piv, jac, order, diag, b, z, out):
         s = z[i]
         for j in range(i + 1, na):
             s -= w[i, j] * z[j]
-        z[i] = s / w[i, i]
+        z[i] = s * w[i, i]
     for a in range(na):
         out[order[a]] = z[a]
     inv = 1.0 / diag
