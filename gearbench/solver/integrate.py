@@ -34,13 +34,13 @@ def _sign(v):
 
 
 @nb.njit(cache=True)
-def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn):
+def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1):
     """One step of the chosen method (``layout.METHOD_*``): (error norm, rhs evaluations)."""
     if method == METHOD_RODAS4:
-        return rodas4(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
+        return rodas4(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
     if method == METHOD_DOPRI:
-        return dopri5(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
-    return rosenbrock23(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
+        return dopri5(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
+    return rosenbrock23(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
 
 
 @nb.njit(cache=True)
@@ -57,10 +57,10 @@ def _write_output(row, x, p, modes, ref, setpoint):
 
 
 @nb.njit(cache=True)
-def _locate(j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0):
-    """Root of guard ``j`` on the step's interpolant in ``(0, hi0]`` (Illinois),
-    where the guard is < 0 at 0 and >= 0 at ``hi0``; returns theta."""
-    lo, hi = 0.0, hi0
+def _locate(j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0, lo0=0.0):
+    """Root of guard ``j`` on the step's interpolant in ``(lo0, hi0]`` (Illinois),
+    where the guard is ``g0j`` < 0 at ``lo0`` and >= 0 at ``hi0``; returns theta."""
+    lo, hi = lo0, hi0
     glo, ghi = g0j, 1.0  # only the sign of ghi matters for bracketing
     if hi0 >= 1.0:
         guards(xn, p, modes, ref_t + slope * hh, gt)
@@ -142,6 +142,20 @@ def _resolved_impact(x, p, modes, atol):
 
 
 @nb.njit(cache=True)
+def _stale_contact(x, p, modes, ref, g):
+    """Fill ``g`` with the guards at ``x``; return the contact guard that is
+    already past zero in the current mode (the mode is stale), else -1."""
+    guards(x, p, modes, ref, g)
+    if modes[M_CONTACT] != 0:
+        return G_LEAVE if g[G_LEAVE] > 0.0 else -1
+    if g[G_ENTER_POS] > 0.0:
+        return G_ENTER_POS
+    if g[G_ENTER_NEG] > 0.0:
+        return G_ENTER_NEG
+    return -1
+
+
+@nb.njit(cache=True)
 def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
     """Integrate from rest state ``x0`` at t = 0 to ``t_end``.
 
@@ -171,6 +185,8 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     f = np.empty(n)
     xn = np.empty(n)
     fn = np.empty(n)
+    s0 = np.empty(n)  # end slopes of the step's interpolant (hermite)
+    s1 = np.empty(n)
     xi = np.empty(n)
     ws = np.empty((WS_ROWS, n))
     order, na = feedback_states(p)
@@ -274,7 +290,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                     jac_ok = True
                     jac_region = region
                 quadrature_rows(x, p, ref_t, s, lin[3], lin[1].shape[0], lin[0], lin[4])
-            err, ne = _step(method, t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
+            err, ne = _step(method, t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
             nfe += ne
             if not (err <= 1.0):
                 nrej += 1
@@ -291,10 +307,26 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             theta = 1.0
             for j in range(N_GUARDS):
                 if j != skip and g0[j] < 0.0 and g1[j] >= 0.0:
-                    th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, 1.0)
+                    th = _locate(j, g0[j], t, hh, x, s0, xn, s1, p, modes, ref_t, s, xi, gt, 1.0)
                     if which < 0 or th < theta:
                         theta = th
                         which = j
+                elif j == skip and g1[j] >= 0.0:
+                    # Refused where the step starts (at zero, turning back), the
+                    # guard may still cross later in the step: find where it is
+                    # back below zero and locate the crossing after that.
+                    lo = 0.5
+                    for _ in range(40):
+                        hermite(lo, hh, x, s0, xn, s1, xi)
+                        guards(xi, p, modes, ref_t + s * lo * hh, gt)
+                        if gt[j] < 0.0:
+                            break
+                        lo *= 0.5
+                    if gt[j] < 0.0:
+                        th = _locate(j, gt[j], t, hh, x, s0, xn, s1, p, modes, ref_t, s, xi, gt, 1.0, lo)
+                        if which < 0 or th < theta:
+                            theta = th
+                            which = j
             # A guard can cross and cross back inside one step: a graze (the
             # motor swings into a flank and back out: the teeth would pass
             # through each other), a motor speed that dips through zero (a
@@ -304,20 +336,20 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             # delta, of the motor speed and of the control error.
             nq = 0
             if modes[M_CONTACT] == 0:
-                nq = _extrema(hh, x, f, xn, fn, X_DELTA, 0.0, thq, nq)
+                nq = _extrema(hh, x, s0, xn, s1, X_DELTA, 0.0, thq, nq)
             if shift_on:
-                nq = _extrema(hh, x, f, xn, fn, X_WM, 0.0, thq, nq)
+                nq = _extrema(hh, x, s0, xn, s1, X_WM, 0.0, thq, nq)
             if bangbang:
-                nq = _extrema(hh, x, f, xn, fn, X_THM, s * hh * p[P_N], thq, nq)
+                nq = _extrema(hh, x, s0, xn, s1, X_THM, s * hh * p[P_N], thq, nq)
             for q in range(nq):
                 tq = thq[q]
                 if which >= 0 and tq >= theta:
                     continue
-                hermite(tq, hh, x, f, xn, fn, xi)
+                hermite(tq, hh, x, s0, xn, s1, xi)
                 guards(xi, p, modes, ref_t + s * tq * hh, g2)
                 for j in range(N_GUARDS):
                     if j != skip and g0[j] < 0.0 and g1[j] < 0.0 and g2[j] >= 0.0:
-                        th = _locate(j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, s, xi, gt, tq)
+                        th = _locate(j, g0[j], t, hh, x, s0, xn, s1, p, modes, ref_t, s, xi, gt, tq)
                         if which < 0 or th < theta:
                             theta = th
                             which = j
@@ -327,7 +359,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                 if hs < 1e-13 * max(1.0, abs(t)):
                     hs = 0.0
                 elif theta < 1.0:
-                    err, ne = _step(method, t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn)
+                    err, ne = _step(method, t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
                     nfe += ne
                     # The root was found on the long step's interpolant, whose
                     # error is not controlled; the re-taken step can end short
@@ -349,12 +381,12 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                 # sample the outputs on (t, t1]
                 while io < t_out.size and t_out[io] <= t1:
                     th = (t_out[io] - t) / hh
-                    hermite(th, hh, x, f, xn, fn, xi)
+                    hermite(th, hh, x, s0, xn, s1, xi)
                     _write_output(outputs[io], xi, p, modes, v0 + s * (t_out[io] - ta),
                                   r0 if sampled else v0 + s * (t_out[io] - ta))
                     io += 1
                 if closed:
-                    hermite(0.5, hh, x, f, xn, fn, xi)
+                    hermite(0.5, hh, x, s0, xn, s1, xi)
                     u_mid = command(xi, p, modes, ref_t + 0.5 * s * hh, p[P_CTRL])
                     if abs(u_mid) >= vmax:
                         t_sat += hh
@@ -402,17 +434,8 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             # stands (hs = 0) is judged after the next step, else the two
             # could undo each other forever.
             ref_now = v0 + s * (t - ta)
-            stale = -1
+            stale = _stale_contact(x, p, modes, ref_now, g2) if hh > 0.0 else -1
             cm = modes[M_CONTACT]
-            if hh > 0.0:
-                guards(x, p, modes, ref_now, g2)
-                if cm != 0:
-                    if g2[G_LEAVE] > 0.0:
-                        stale = G_LEAVE
-                elif g2[G_ENTER_POS] > 0.0:
-                    stale = G_ENTER_POS
-                elif g2[G_ENTER_NEG] > 0.0:
-                    stale = G_ENTER_NEG
             if stale >= 0:
                 if apply_event(stale, x, p, modes, ref_now):
                     impacts += _resolved_impact(x, p, modes, atol)

@@ -76,7 +76,8 @@ def error_norm(err, y0, y1, rtol, atol):
 
 @nb.njit(cache=True)
 def hermite(theta, h, y0, f0, y1, f1, out):
-    """Cubic Hermite interpolant at ``t0 + theta h``."""
+    """Cubic Hermite interpolant at ``t0 + theta h`` with end slopes ``f0``, ``f1``
+    (per unit time: the derivatives, or a method's own dense output recast)."""
     t2 = theta * theta
     t3 = t2 * theta
     h00 = 2.0 * t3 - 3.0 * t2 + 1.0
@@ -183,12 +184,14 @@ def _solve(w, piv, jac, order, diag, b, z, out):
 
 
 @nb.njit(cache=True)
-def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew):
+def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
     """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
 
     ``ref(t) = ref0 + slope (t - t_seg)`` enters through ``ref0`` (the value at
     ``t``) and ``slope``.  Writes the new state and its derivative into
-    ``ynew``/``fnew`` and returns ``(error norm, rhs evaluations)``.
+    ``ynew``/``fnew``, the end slopes of the step's cubic interpolant into
+    ``s0``/``s1`` (see ``hermite``; here the derivatives themselves), and
+    returns ``(error norm, rhs evaluations)``.
     ``ws`` is a (WS_ROWS, N_STATE) scratch array; ``lin = (jac, w, piv,
     order, tdot)`` holds the Jacobian and ``d f/d t`` of ``jacobian`` (taken by
     the caller, who decides when it can be reused) and the LU scratch.
@@ -228,6 +231,8 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin,
     _solve(w, piv, jac, order, diag, rhsv, z, k3)
     for i in range(n):
         ftmp[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
+        s0[i] = f0[i]
+        s1[i] = fnew[i]
     return error_norm(ftmp, y, ynew, rtol, atol), 2
 
 
@@ -247,10 +252,15 @@ R_C41, R_C42, R_C43 = -0.1073529058151375, -9.594562251023355, -20.4702861480961
 R_C51, R_C52, R_C53, R_C54 = 7.496443313967647, -10.24680431464352, -33.99990352819905, 11.7089089320616
 R_C61, R_C62, R_C63, R_C64, R_C65 = (8.083246795921522, -7.981132988064893, -31.52159432874371,
                                      16.31930543123136, -6.058818238834054)
+# dense output (rodas.f's D21..D35)
+R_D21, R_D22, R_D23, R_D24, R_D25 = (10.12623508344586, -7.487995877610167, -34.80091861555747,
+                                     -7.992771707568823, 1.025137723295662)
+R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.43084320892478,
+                                     24.76722511418386, -6.594389125716872)
 
 
 @nb.njit(cache=True)
-def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew):
+def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
     jac, w, piv, order, tdot = lin
     n = N_STATE
@@ -310,6 +320,16 @@ def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew,
     for i in range(n):
         ynew[i] = ytmp[i] + k6[i]
     rhs(ynew, p, modes, ref1, fnew)
+    # RODAS's own dense output, y0 (1 - th) + th (y1 + (1 - th) (c3 + th c4)), written
+    # as a cubic Hermite: its end slopes are (y1 - y0 + c3)/h and (y1 - y0 - c3 - c4)/h.
+    # Unlike the Hermite cubic through f0 and f1 it stays accurate for the stiff
+    # components across steps much longer than their time constants.
+    for i in range(n):
+        c3 = R_D21 * k1[i] + R_D22 * k2[i] + R_D23 * k3[i] + R_D24 * k4[i] + R_D25 * k5[i]
+        c4 = R_D31 * k1[i] + R_D32 * k2[i] + R_D33 * k3[i] + R_D34 * k4[i] + R_D35 * k5[i]
+        dy = ynew[i] - y[i]
+        s0[i] = (dy + c3) * hinv
+        s1[i] = (dy - c3 - c4) * hinv
     return error_norm(k6, y, ynew, rtol, atol), 6
 
 
@@ -326,7 +346,7 @@ C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
 @nb.njit(cache=True)
-def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew):
+def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
     n = N_STATE
     k2 = ws[0]
@@ -356,4 +376,6 @@ def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew,
     rhs(ynew, p, modes, ref0 + slope * h, fnew)
     for i in range(n):
         err[i] = h * (E1 * f0[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * fnew[i])
+        s0[i] = f0[i]
+        s1[i] = fnew[i]
     return error_norm(err, y, ynew, rtol, atol), 6
