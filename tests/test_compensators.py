@@ -127,7 +127,7 @@ def _critical_kp(plant, rate):
 
 
 def test_rate_damping_restores_the_load_damping_teeth_apart():
-    """Kd = R bl/(kt N) from the plant; with it the teeth-apart P loop's gain limit
+    """Kr = R bl/(kt N) from the plant; with it the teeth-apart P loop's gain limit
     rises from the Routh bound (R Jm + L bm)(R bm + kt ke)/(L Jm kt) (87.8 V/deg) to the
     one with bm -> bm + bl/N^2 in the s coefficient (906 V/deg), above Kp = 200."""
     from gearbench import layout as L

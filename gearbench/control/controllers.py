@@ -35,8 +35,8 @@ COMPENSATORS = ("none", "thesis_shift", "setpoint_direction", "direction_feedfor
   the error left after the shift is mostly lag on the ramps, which a shift
   cannot remove;
 * ``damped_feedforward``: ``direction_feedforward`` plus rate damping
-  ``Kd (dr/dt - w_m/N)`` (V; ``w_m`` the rate of the measured motor angle,
-  rad/s, as a tachometer gives it), with ``Kd = R bl / (kt N)`` V per rad/s at
+  ``Kr (dr/dt - w_m/N)`` (V; ``w_m`` the rate of the measured motor angle,
+  rad/s, as a tachometer gives it), with ``Kr = R bl / (kt N)`` V per rad/s at
   the output (``bl/(g N)`` N m per rad/s with a torque drive of gain ``g``).
   It puts back, electrically, the load's damping that the motor loses when
   the teeth part.  See below.
@@ -58,18 +58,19 @@ Kp = 200 V/deg the motor is an oscillator inside the clearance, and the
 ``n(A) = (2/pi) [asin(a/A) + (a/A) sqrt(1 - (a/A)^2)]``, ``a = Vmax/K``,
 predicts a limit cycle where ``Kp n(A)`` equals the 87.8 V/deg limit, at the
 phase-crossover frequency ``sqrt((R bm + kt ke)/(L Jm))`` = 634 rad/s
-(101 Hz): ``a`` = 0.060 deg, ``A`` ~ 0.18 deg.  That is the hunt of profile 3's
-dwell (the load, pushed 0.18 deg past the set point by the step, leaves the
-motor's target inside the clearance; ~370 voltage sign changes in 2 s).
+(101 Hz): ``a`` = 0.060 deg, ``A`` = 0.17 deg (simulated: 0.18 deg, 98 Hz;
+tests/test_compensators.py).  That is the hunt of profile 3's dwell (the
+load, pushed 0.18 deg past the set point by the step, leaves the motor's
+target inside the clearance; ~370 voltage sign changes in 2 s).
 
-The rate term adds ``kt Kd/N`` to the ``s`` coefficient (below ``R/L`` the
-winding turns ``-Kd w_m/N`` volts into ``-(kt/R)(Kd/N) w_m`` of torque), and
-``Kd = R bl/(kt N)`` makes that exactly ``R bl/N^2``: the coefficient becomes
+The rate term adds ``kt Kr/N`` to the ``s`` coefficient (below ``R/L`` the
+winding turns ``-Kr w_m/N`` volts into ``-(kt/R)(Kr/N) w_m`` of torque), and
+``Kr = R bl/(kt N)`` makes that exactly ``R bl/N^2``: the coefficient becomes
 the engaged one, ``R (bm + bl/N^2) + kt ke``, and the teeth-apart limit rises
 to 906 V/deg (thesis plant; the engaged one to 2755 V/deg), damping ratio
 ~0.5 at Kp = 200.  Since ``n(A) <= 1``, ``Kp n(A)`` stays below the limit for
 every amplitude: the describing function predicts no limit cycle at any gain
-below 906 V/deg, and the free motor settles on its target.  ``Kd`` comes from
+below 906 V/deg, and the free motor settles on its target.  ``Kr`` comes from
 the plant alone (no tuning, the same for every gain, profile and P/PI).  It
 acts on the error rate, ``dr/dt`` the segment's slope: zero on a tracked
 ramp (the feedforward keeps carrying it), and a set-point step is not
