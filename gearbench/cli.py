@@ -40,7 +40,10 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
     Writes RESULTS/<name>.csv (profile, controller, kp, shift, iae_deg_s,
     thesis_iae_deg_s, ratio), RESULTS/<name>_runs.csv (every score of every
     run) and RESULTS/<name>.md; the IAE is the integrated absolute output
-    error in deg s.
+    error in deg s.  An experiment with a ``compensator`` list writes, per
+    compensator, the IAE and the voltage sign changes instead, and the figures
+    RESULTS/<name>.png (bars) and RESULTS/<name>_traces.png (the traces of the
+    cell with the most sign changes).
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -94,6 +97,9 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
         import matplotlib.pyplot as plt
         fig = variants.compensator_figure(runs, title)
         save_figure_atomic(fig, results_dir / f"{exp.name}.png")
+        plt.close(fig)
+        fig, _ = variants.compensator_trace_figure(records, exp.plant)
+        save_figure_atomic(fig, results_dir / f"{exp.name}_traces.png")
         plt.close(fig)
         shown = runs[columns].to_string(index=False)
     elif exp.plant.leadscrew is not None:

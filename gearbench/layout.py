@@ -63,6 +63,7 @@ P_DEADZONE = 51    # amplifier dead zone threshold, V
 P_DELAY = 52       # sampled controller: 1.0 holds the previous sample's command (one sample of delay)
 P_FF = 53          # velocity feedforward, V per rad/s of set-point speed at the output (0 = none)
 P_REF_SLOPE = 54   # the current segment's set-point slope, rad/s (written by the integration loop)
+P_KRATE = 55       # rate damping of damped_feedforward, V per rad/s of the error rate dr/dt - w_m/N (0 = none)
 P_SIZE = 64
 
 LAW_DUBOWSKY = 0.0

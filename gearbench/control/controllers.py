@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import layout as L
 
-COMPENSATORS = ("none", "thesis_shift", "setpoint_direction", "direction_feedforward")
+COMPENSATORS = ("none", "thesis_shift", "setpoint_direction", "direction_feedforward", "damped_feedforward")
 """Backlash compensators (each adds the set-point shift, thesis Equation 1, of
 ``shift_deg``; they differ in what decides its sign):
 
@@ -33,7 +33,50 @@ COMPENSATORS = ("none", "thesis_shift", "setpoint_direction", "direction_feedfor
   the ramp's speed against back-emf and viscous load, engaged, in steady
   state; model-based, from the plant).  On the thesis's heavily damped valve
   the error left after the shift is mostly lag on the ramps, which a shift
-  cannot remove.
+  cannot remove;
+* ``damped_feedforward``: ``direction_feedforward`` plus rate damping
+  ``Kr (dr/dt - w_m/N)`` (V; ``w_m`` the rate of the measured motor angle,
+  rad/s, as a tachometer gives it), with ``Kr = R bl / (kt N)`` V per rad/s at
+  the output (``bl/(g N)`` N m per rad/s with a torque drive of gain ``g``).
+  It puts back, electrically, the load's damping that the motor loses when
+  the teeth part.  See below.
+
+Why ``damped_feedforward`` (voltage drive; SI units, motor side).  With the
+teeth in contact the load's damping reflects to the rotor as ``bl/N^2``
+(thesis plant: 15/100^2 = 1.5e-3 N m s/rad, 9.3 times the motor's own
+electrical damping ``kt ke / R`` = 1.6e-4 N m s/rad).  When the teeth part it is
+gone, and the motor alone under ``u = K (r - theta_m/N)`` (``K`` in V/rad at
+the output) has the characteristic polynomial
+
+    L Jm s^3 + (R Jm + L bm) s^2 + (R bm + kt ke) s + kt K/N,
+
+which Routh-Hurwitz makes stable only for
+``K/N < (R Jm + L bm)(R bm + kt ke) / (L Jm kt)``: Kp < 87.8 V/deg on the
+thesis plant, against 1448 V/deg engaged (``gearbench stability``).  At
+Kp = 200 V/deg the motor is an oscillator inside the clearance, and the
++-Vmax saturation bounds it: its describing function
+``n(A) = (2/pi) [asin(a/A) + (a/A) sqrt(1 - (a/A)^2)]``, ``a = Vmax/K``,
+predicts a limit cycle where ``Kp n(A)`` equals the 87.8 V/deg limit, at the
+phase-crossover frequency ``sqrt((R bm + kt ke)/(L Jm))`` = 634 rad/s
+(101 Hz): ``a`` = 0.060 deg, ``A`` = 0.17 deg (simulated: 0.18 deg, 98 Hz;
+tests/test_compensators.py).  That is the hunt of profile 3's dwell (the
+load, pushed 0.18 deg past the set point by the step, leaves the motor's
+target inside the clearance; ~370 voltage sign changes in 2 s).
+
+The rate term adds ``kt Kr/N`` to the ``s`` coefficient (below ``R/L`` the
+winding turns ``-Kr w_m/N`` volts into ``-(kt/R)(Kr/N) w_m`` of torque), and
+``Kr = R bl/(kt N)`` makes that exactly ``R bl/N^2``: the coefficient becomes
+the engaged one, ``R (bm + bl/N^2) + kt ke``, and the teeth-apart limit rises
+to 906 V/deg (thesis plant; the engaged one to 2755 V/deg), damping ratio
+~0.5 at Kp = 200.  Since ``n(A) <= 1``, ``Kp n(A)`` stays below the limit for
+every amplitude: the describing function predicts no limit cycle at any gain
+below 906 V/deg, and the free motor settles on its target.  ``Kr`` comes from
+the plant alone (no tuning, the same for every gain, profile and P/PI).  It
+acts on the error rate, ``dr/dt`` the segment's slope: zero on a tracked
+ramp (the feedforward keeps carrying it), and a set-point step is not
+differentiated (no derivative kick).  The rhs stays continuous (a linear term
+in the state): no new event.  A differentiated encoder would need a filter
+whose lag is small at ~1000 rad/s; this models the ideal rate.
 """
 
 KINDS = {"open": L.CTRL_OPEN, "bang_bang": L.CTRL_BANGBANG, "p": L.CTRL_P,
@@ -47,8 +90,8 @@ class Controller:
     kind: ``bang_bang``, ``p``, ``pi``, ``pid`` (or ``open``: no feedback);
     kp (V/deg), ki (1/s), kd (s), derivative_filter_s (s), band_deg (deg);
     shift: apply thesis Equation 1; shift_deg: its size (deg), default half
-    the clearance; compensator: ``none``, ``thesis_shift`` or
-    ``setpoint_direction`` (see ``COMPENSATORS``); ``shift=True`` with
+    the clearance; compensator: one of ``COMPENSATORS`` (see there);
+    ``shift=True`` with
     ``compensator="none"`` is the thesis shift (the historical spelling).
     """
     kind: str
@@ -94,9 +137,16 @@ def pack_controller(ctrl: Controller, backlash_deg: float, p: np.ndarray) -> np.
         p[L.P_SHIFT] = math.radians(shift)
     else:
         p[L.P_SHIFT] = 0.0
-    p[L.P_COMP] = L.COMP_DIRECTION if comp in ("setpoint_direction", "direction_feedforward") else L.COMP_THESIS
+    keyed = ("setpoint_direction", "direction_feedforward", "damped_feedforward")
+    p[L.P_COMP] = L.COMP_DIRECTION if comp in keyed else L.COMP_THESIS
     p[L.P_FF] = 0.0
-    if comp == "direction_feedforward" and p[L.P_TORQUE_IN] == 0.0:
-        n, b = p[L.P_N], p[L.P_BM] + p[L.P_BL] / p[L.P_N] ** 2
+    n = p[L.P_N]
+    if comp in ("direction_feedforward", "damped_feedforward") and p[L.P_TORQUE_IN] == 0.0:
+        b = p[L.P_BM] + p[L.P_BL] / n ** 2
         p[L.P_FF] = n * (p[L.P_KE] + p[L.P_R] * b / p[L.P_KT])
+    p[L.P_KRATE] = 0.0
+    if comp == "damped_feedforward":
+        # the rotor torque that stands in for the load's damping bl/N^2 when the teeth part
+        per_volt = p[L.P_DRIVE_GAIN] if p[L.P_TORQUE_IN] > 0.0 else p[L.P_KT] / p[L.P_R]
+        p[L.P_KRATE] = p[L.P_BL] / (per_volt * n)
     return p

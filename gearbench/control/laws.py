@@ -13,14 +13,17 @@ the motor speed is >= 0, else ``-s``), the error is ``e = r +- s - theta_m/N``.
 
 plus, for the ``direction_feedforward`` compensator, ``Kff dr/dt``: the
 voltage that holds the set point's ramp speed in steady state (``P_FF``, with
-``dr/dt`` the current segment's slope); all saturated at ``+-Vmax``.  Kp in V/rad, Ki in 1/s, Kd in s, Tf in s (the
+``dr/dt`` the current segment's slope); for ``damped_feedforward`` also the
+rate damping ``Kr (dr/dt - w_m/N)`` (``P_KRATE``, V per rad/s at the output;
+``w_m`` the rate of the measured motor angle; why: ``controllers.COMPENSATORS``);
+all saturated at ``+-Vmax``.  Kp in V/rad, Ki in 1/s, Kd in s, Tf in s (the
 experiment files give Kp in V/deg, the thesis's unit).
 """
 import numba as nb
 
-from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_BB, P_FF, P_REF_SLOPE,
+from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_BB, P_FF, P_KRATE, P_REF_SLOPE,
                       M_SHIFT, P_KD, P_KI, P_KP, P_N, P_SHIFT, P_TF, P_VMAX,
-                      X_THM, X_ZD, X_ZI)
+                      X_THM, X_WM, X_ZD, X_ZI)
 
 
 @nb.njit(cache=True, inline="always")
@@ -42,7 +45,11 @@ def command(x, p, modes, ref, kind):
         u += p[P_KI] * x[X_ZI]
     if kind == CTRL_PID:
         u += p[P_KD] * (e - x[X_ZD]) / p[P_TF]
-    return p[P_KP] * u + p[P_FF] * p[P_REF_SLOPE]
+    if p[P_KRATE] == 0.0:
+        return p[P_KP] * u + p[P_FF] * p[P_REF_SLOPE]
+    # damped_feedforward: the rate damping on the error rate dr/dt - w_m/N
+    slope = p[P_REF_SLOPE]
+    return p[P_KP] * u + p[P_FF] * slope + p[P_KRATE] * (slope - x[X_WM] / p[P_N])
 
 
 @nb.njit(cache=True, inline="always")

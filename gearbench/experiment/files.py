@@ -430,8 +430,8 @@ class Experiment:
     base_dir : Path
         Folder of the experiment file; relative paths are taken from it.
     compensators : tuple of str
-        Backlash compensators to compare (``none``, ``thesis_shift``,
-        ``setpoint_direction``), one run each, instead of ``shifts``; empty
+        Backlash compensators to compare (``control.controllers.COMPENSATORS``:
+        ``none``, ``thesis_shift``, ...), one run each, instead of ``shifts``; empty
         when the file has no ``compensator`` key.
     profile_scale : float
         Every profile's values and slopes are multiplied by this (e.g. to fit

@@ -104,6 +104,46 @@ def compensator_figure(table: pd.DataFrame, title: str = ""):
     return fig
 
 
+def compensator_trace_figure(records, plant, title: str = ""):
+    """Traces of the cell (profile, controller, gain) with the most voltage sign
+    changes summed over its compensators: one row per compensator, the output
+    error and the motor-side error ``theta_m/N - r`` (deg, left) and the voltage
+    (V, right) against time.  Returns ``(figure, cell)``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .. import layout as L
+
+    groups: dict = {}
+    for r in records:
+        groups.setdefault((r.profile, r.controller.kind, r.controller.kp), []).append(r)
+    cell = max(groups, key=lambda c: sum(r.result.switchings for r in groups[c]))
+    rows = groups[cell]
+    n = plant.gear.ratio
+    fig, axes = plt.subplots(len(rows), 2, figsize=(12, 1.9 * len(rows) + 0.8), sharex=True, squeeze=False)
+    for (ax1, ax2), r in zip(axes, rows):
+        o, t = r.result.outputs, r.result.time_s
+        ax1.plot(t, np.degrees(o[:, L.O_LOAD] - o[:, L.O_SETPOINT]), lw=0.8, label="output - set point")
+        ax1.plot(t, np.degrees(o[:, L.O_MOTOR] / n - o[:, L.O_SETPOINT]), lw=0.6,
+                 label="motor angle / N - set point")
+        ax1.set_ylabel("deg")
+        comp = r.controller.effective_compensator
+        ax1.set_title(f"{comp}: IAE {r.result.iae_deg_s:.2f} deg s", fontsize=9, loc="left")
+        ax2.plot(t, o[:, L.O_VOLTAGE], lw=0.5, color="C2")
+        ax2.set_ylabel("voltage (V)")
+        ax2.set_title(f"{comp}: {r.result.switchings} voltage sign changes", fontsize=9, loc="left")
+        for ax in (ax1, ax2):
+            ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=7, loc="upper right")
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    prof, kind, kp = cell
+    fig.suptitle(title or f"{prof}, {_name(kind, kp)}: the cell with the most voltage sign changes")
+    fig.tight_layout()
+    return fig, cell
+
+
 def _name(ctrl, kp) -> str:
     name = CONTROLLER_NAMES.get(ctrl, ctrl)
     if kp is not None and not (isinstance(kp, float) and math.isnan(kp)):
