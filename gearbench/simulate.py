@@ -101,7 +101,8 @@ class RunResult:
 
     @property
     def switchings(self) -> int:
-        """Changes of sign of the applied voltage (bang-bang: every switch)."""
+        """Changes of sign of the applied voltage (bang-bang: every switch; a
+        continuous law counts a change once the voltage is past rtol * Vmax)."""
         return int(self.stats[L.S_SWITCHES])
 
     @property

@@ -230,6 +230,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
         _write_output(outputs[io], x, p, modes, u0, seg_v[0])
         io += 1
     last_sign = _sign(applied_input(x, p, modes, u0))
+    u_res = rtol * vmax
     h = min(hmax, 1e-5)
     max_err = 0.0
     t_sat = 0.0
@@ -457,7 +458,14 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                 rhs(x, p, modes, ref_now, f)
                 nfe += 1
                 jac_ok = False
-            sg = _sign(applied_input(x, p, modes, v0 + s * (t - ta)))
+            u_now = applied_input(x, p, modes, v0 + s * (t - ta))
+            if closed and not bangbang:
+                # A continuous law at rest hovers at a voltage of round-off size
+                # whose sign means nothing: count a change of sign only once the
+                # voltage is past what the solver resolves, rtol * Vmax.
+                sg = 1 if u_now > u_res else (-1 if u_now < -u_res else last_sign)
+            else:
+                sg = _sign(u_now)
             if sg != last_sign:
                 switches += 1
                 last_sign = sg
