@@ -26,13 +26,13 @@ from ..layout import (CTRL_BANGBANG, CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_
                       X_THM, X_WM, X_ZD, X_ZI)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def control_error(x, p, modes, ref):
     """Motor-side error ``e = r + shift - theta_m/N``, rad."""
     return ref + modes[M_SHIFT] * p[P_SHIFT] - x[X_THM] / p[P_N]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def command(x, p, modes, ref, kind):
     """Unsaturated controller output, V (for open loop: the input itself)."""
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
@@ -52,7 +52,7 @@ def command(x, p, modes, ref, kind):
     return p[P_KP] * u + p[P_FF] * slope + p[P_KRATE] * (slope - x[X_WM] / p[P_N])
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def saturate(u, vmax):
     """Clip to the amplifier's range ``[-vmax, vmax]``."""
     if u > vmax:

@@ -30,7 +30,7 @@ import numba as nb
 from ..layout import LAW_ELASTO, LAW_LINEAR
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def penetration(delta, h):
     """Overlap of the teeth beyond the clearance, rad (0 inside the dead zone)."""
     if delta > h:
@@ -40,13 +40,13 @@ def penetration(delta, h):
     return 0.0
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def unclipped(delta, ddelta, h, k, d, mode):
     """Spring plus damper torque ``k (delta - mode h) + d ddelta`` on flank ``mode``, N m."""
     return k * (delta - mode * h) + d * ddelta
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def engaged_torque(delta, ddelta, h, k, d, law, mode):
     """Contact torque on the load while engaged on flank ``mode`` (+1 or -1), N m."""
     tc = k * (delta - mode * h)
@@ -58,7 +58,7 @@ def engaged_torque(delta, ddelta, h, k, d, law, mode):
     return tc + td
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def clipped_torque(delta, ddelta, h, k, d, law):
     """The memoryless law: contact torque from the configuration alone, N m.
 
@@ -81,7 +81,7 @@ def clipped_torque(delta, ddelta, h, k, d, law):
     return 0.0
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def entry_guard(delta, ddelta, h, k, d, side):
     """Guard that turns >= 0 when free teeth touch flank ``side``, in N m.
 

@@ -37,25 +37,25 @@ from .contact import engaged_torque
 from .effects.compiled import input_voltage, load_torque, motor_torque
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def pinion_speed(x, p):
     """Pinion speed, rad/s: the rotor's unless a shaft separates them."""
     return x[X_WP] if p[P_HAS_SHAFT] > 0.0 else x[X_WM]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def load_angle(x, p):
     """Output angle ``theta_l = (theta_m - phi)/N - delta``, rad."""
     return (x[X_THM] - x[X_PHI]) / p[P_N] - x[X_DELTA]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def mesh_rate(x, p):
     """``d delta/dt = w_p/N - w_l``, rad/s."""
     return pinion_speed(x, p) / p[P_N] - x[X_WL]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def mesh_torque(x, p, modes):
     """Contact torque on the load in the current contact mode, N m."""
     m = modes[M_CONTACT]
@@ -65,7 +65,7 @@ def mesh_torque(x, p, modes):
                           p[P_DMESH], p[P_LAW], m)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def applied_input(x, p, modes, ref):
     """The input as applied: motor voltage (V, after any dead zone and the
     saturation) or drive torque / force (N m or N, saturated at the drive's limit).
@@ -81,7 +81,7 @@ def applied_input(x, p, modes, ref):
     return saturate(u, p[P_VMAX])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def rhs(x, p, modes, ref, out):
     """Write dx/dt into ``out`` for state ``x`` and set point (or input) ``ref``."""
     n = p[P_N]
@@ -182,7 +182,7 @@ def feedback_states(p):
     return order, nb_
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def piecewise_linear(p):
     """True when ``rhs`` is affine in the state inside each mode and each
     ``linear_region``: the Dubowsky or linear contact law, and no effect with a
@@ -199,7 +199,7 @@ def piecewise_linear(p):
     return p[P_VISC_M] == p[P_VISC_M_NEG] and p[P_VISC_L] == p[P_VISC_L_NEG]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def linear_region(x, p, modes, ref):
     """Which side of the amplifier's limits the command is on (-1, 0, +1): the
     only kink of a ``piecewise_linear`` right-hand side inside a mode, apart
@@ -214,7 +214,7 @@ def linear_region(x, p, modes, ref):
     return 1 if u >= vmax else (-1 if u <= -vmax else 0)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def quadrature_rows(x, p, ref, slope, order, na, jac, tdot):
     """Write the error quadratures' rows of the Jacobian exactly: with
     ``e = r - theta_l``, ``theta_l = (theta_m - phi)/N - delta``,

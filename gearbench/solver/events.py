@@ -20,12 +20,11 @@ the root on the step's interpolant, steps exactly to it, then calls
 teeth passing through each other when a root lands just short of a crossing.
 """
 import numba as nb
-import numpy as np
 
 from ..control.laws import control_error
 from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_RIGID, G_BB_A, G_BB_B, G_ENTER_NEG,
                       G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
-                      LAW_LINEAR, N_GUARDS, N_STATE, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
+                      LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
                       P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, X_DELTA, X_WL, X_WM,
                       X_WP)
 from ..plant.contact import entry_guard, unclipped
@@ -34,7 +33,7 @@ from ..plant.rhs import mesh_rate, rhs
 INACTIVE = -1.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def guards(x, p, modes, ref, g):
     """Fill ``g`` with the guard values of the current modes."""
     for j in range(N_GUARDS):
@@ -76,7 +75,7 @@ def guards(x, p, modes, ref, g):
         g[G_SHIFT] = -x[X_WM] - eps if modes[M_SHIFT] > 0 else x[X_WM] - eps
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def classify_bangbang(x, p, modes, ref):
     """Set the bang-bang mode from the error (used where the error jumps)."""
     if p[P_CTRL] != CTRL_BANGBANG:
@@ -92,7 +91,7 @@ def classify_bangbang(x, p, modes, ref):
         modes[M_BB] = 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def classify(x, p, modes, ref):
     """Set every mode from the state alone (at the start of a run)."""
     delta = x[X_DELTA]
@@ -113,8 +112,8 @@ def classify(x, p, modes, ref):
     classify_bangbang(x, p, modes, ref)
 
 
-@nb.njit(cache=True)
-def apply_event(which, x, p, modes, ref):
+@nb.njit(cache=True, _nrt=False)
+def apply_event(which, x, p, modes, ref, f):
     """Switch the modes for the guard ``which`` that just fired.
 
     Returns 1 for a contact onset (an impact), 0 otherwise.
@@ -130,8 +129,7 @@ def apply_event(which, x, p, modes, ref):
         # Refuse a separation whose free-flight torque rate points straight
         # back into contact (a graze at zero torque, not a separation).
         modes[M_CONTACT] = 0
-        f = np.empty(N_STATE)
-        rhs(x, p, modes, ref, f)
+        rhs(x, p, modes, ref, f)  # f: scratch for the free-flight derivative
         n = p[P_N]
         wp_dot = f[X_WP] if p[P_HAS_SHAFT] > 0.0 else f[X_WM]
         dd = mesh_rate(x, p)
@@ -159,7 +157,7 @@ def apply_event(which, x, p, modes, ref):
     return 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def direction_of_segment(k, seg_t, seg_v, seg_s, held):
     """Set-point direction for the set-point-direction compensator on segment ``k``.
 

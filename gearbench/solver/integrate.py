@@ -28,12 +28,12 @@ from .events import apply_event, classify, classify_bangbang, direction_of_segme
 from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _sign(v):
     return 1 if v > 0.0 else (-1 if v < 0.0 else 0)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1):
     """One step of the chosen method (``layout.METHOD_*``): (error norm, rhs evaluations)."""
     if method == METHOD_RODAS4:
@@ -43,7 +43,7 @@ def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn
     return rosenbrock23(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _write_output(row, x, p, modes, ref, setpoint):
     row[O_SETPOINT] = setpoint
     row[O_LOAD] = load_angle(x, p)
@@ -56,7 +56,7 @@ def _write_output(row, x, p, modes, ref, setpoint):
     row[O_DELTA] = x[X_DELTA]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _locate(j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0, lo0=0.0):
     """Root of guard ``j`` on the step's interpolant in ``(lo0, hi0]`` (Illinois),
     where the guard is ``g0j`` < 0 at ``lo0`` and >= 0 at ``hi0``; returns theta."""
@@ -93,7 +93,7 @@ def _locate(j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0, lo
     return hi
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _extrema(hh, x, f, xn, fn, idx, target, out, n):
     """Append to ``out[n:]`` the theta in (0, 1) where the slope of component
     ``idx`` on the step's cubic Hermite interpolant equals ``target``
@@ -130,7 +130,7 @@ def _extrema(hh, x, f, xn, fn, idx, target, out, n):
     return n
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _resolved_impact(x, p, modes, atol):
     """1 if the contact that just began closed at an approach speed the error
     control resolves (above the load speed's absolute tolerance), else 0.
@@ -141,7 +141,7 @@ def _resolved_impact(x, p, modes, atol):
     return 1 if modes[M_CONTACT] * mesh_rate(x, p) > atol[X_WL] else 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _stale_contact(x, p, modes, ref, g):
     """Fill ``g`` with the guards at ``x``; return the contact guard that is
     already past zero in the current mode (the mode is stale), else -1."""
@@ -180,17 +180,37 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     n = N_STATE
     outputs = np.full((t_out.size, N_OUT), np.nan)
     stats = np.zeros(N_STATS)
-    modes = np.zeros(N_MODES, dtype=np.int64)
     x = x0.copy()
-    f = np.empty(n)
-    xn = np.empty(n)
-    fn = np.empty(n)
-    s0 = np.empty(n)  # end slopes of the step's interpolant (hermite)
-    s1 = np.empty(n)
-    xi = np.empty(n)
-    ws = np.empty((WS_ROWS, n))
     order, na = feedback_states(p)
     lin = (np.empty((na, n)), np.empty((na, na)), np.empty(na, dtype=np.int64), order, np.empty(n))
+    vecs = np.empty((7, n))
+    work = (np.zeros(N_MODES, dtype=np.int64), np.empty((WS_ROWS, n)), np.empty((4, N_GUARDS)),
+            np.empty(6), np.zeros(seg_t.size))
+    _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x, t_out, rtol, atol, atol / rtol, hmax, method, max_steps,
+         outputs, stats, lin, vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], vecs[6], work)
+    return outputs, stats, x, work[4]
+
+
+@nb.njit(cache=True, _nrt=False)
+def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x, t_out, rtol, atol, scale, hmax, method, max_steps,
+         outputs, stats, lin, f, xn, fn, s0, s1, xi, x0, work):
+    """The loop of ``integrate``, on arrays it allocated: compiled without
+    numba's reference-counting runtime, whose atomic increments on every array
+    view and call were 40 % of a step's time.  ``x`` (the initial state) is
+    advanced in place; ``s0``/``s1`` are the end slopes of each step's
+    interpolant (``hermite``); ``x0`` keeps the initial state."""
+    n = N_STATE
+    for i in range(n):
+        x0[i] = x[i]
+    modes, ws, gg, thq, seg_u = work
+    g0 = gg[0]
+    g1 = gg[1]
+    gt = gg[2]
+    g2 = gg[3]
+    jac = lin[0]
+    order = lin[3]
+    tdot = lin[4]
+    na = lin[1].shape[0]
     # The Jacobian is taken again only when it may have changed: never for a
     # step re-taken from the same point (after a rejection, or to land on an
     # event), and for a piecewise-linear right-hand side only when the mode,
@@ -199,15 +219,9 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     linear = piecewise_linear(p)
     jac_ok = False
     jac_region = 0
-    g0 = np.empty(N_GUARDS)
-    g1 = np.empty(N_GUARDS)
-    gt = np.empty(N_GUARDS)
-    g2 = np.empty(N_GUARDS)
-    thq = np.empty(6)
     shift_on = p[P_SHIFT] > 0.0 and p[P_CTRL] != CTRL_OPEN and p[P_COMP] == COMP_THESIS
     bangbang = p[P_CTRL] == CTRL_BANGBANG
     skip = -1  # a guard refused where it stands, ignored until time moves on
-    scale = atol / rtol
     vmax = p[P_VMAX]
     sampled = p[P_CTRL] == CTRL_SAMPLED_PV
     closed = p[P_CTRL] != CTRL_OPEN and not sampled
@@ -217,7 +231,6 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     y_prev = x0[X_THM] / p[P_N] - w0 * ts0
     yf_prev = y_prev - 0.5 * w0 * ts0
     c_prev = 0.0
-    seg_u = np.zeros(seg_t.size)
     keyed = closed and p[P_SHIFT] > 0.0 and p[P_COMP] != COMP_THESIS
     # step-size exponent: 1 / (order of the error estimate + 1)
     order_exp = 1.0 / 3.0 if method == METHOD_ROSENBROCK else (0.25 if method == METHOD_RODAS4 else 0.2)
@@ -290,7 +303,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
                     nfe += jacobian(t, x, f, p, modes, ref_t, s, scale, lin, ws[0], ws[1])
                     jac_ok = True
                     jac_region = region
-                quadrature_rows(x, p, ref_t, s, lin[3], lin[1].shape[0], lin[0], lin[4])
+                quadrature_rows(x, p, ref_t, s, order, na, jac, tdot)
             err, ne = _step(method, t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
             nfe += ne
             if not (err <= 1.0):
@@ -411,7 +424,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             if which >= 0:
                 nev += 1
                 m_contact, m_bb, m_shift = modes[M_CONTACT], modes[M_BB], modes[M_SHIFT]
-                if apply_event(which, x, p, modes, v0 + s * (t - ta)):
+                if apply_event(which, x, p, modes, v0 + s * (t - ta), xi):
                     impacts += _resolved_impact(x, p, modes, atol)
                 rhs(x, p, modes, v0 + s * (t - ta), f)
                 nfe += 1
@@ -438,7 +451,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             stale = _stale_contact(x, p, modes, ref_now, g2) if hh > 0.0 else -1
             cm = modes[M_CONTACT]
             if stale >= 0:
-                if apply_event(stale, x, p, modes, ref_now):
+                if apply_event(stale, x, p, modes, ref_now, xi):
                     impacts += _resolved_impact(x, p, modes, atol)
                 if modes[M_CONTACT] != cm:
                     nev += 1
@@ -451,7 +464,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
             # from the state alone, so re-derive it.
             if hh > 0.0 and (g2[G_BB_A] > 0.0 or g2[G_BB_B] > 0.0 or g2[G_SHIFT] > 0.0):
                 if g2[G_SHIFT] > 0.0:
-                    apply_event(G_SHIFT, x, p, modes, ref_now)  # flips, re-derives the bang-bang
+                    apply_event(G_SHIFT, x, p, modes, ref_now, xi)  # flips, re-derives the bang-bang
                 else:
                     classify_bangbang(x, p, modes, ref_now)
                 nev += 1
@@ -484,4 +497,3 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     stats[S_REJECTED] = nrej
     stats[S_EVENTS] = nev
     stats[S_FEVALS] = nfe
-    return outputs, stats, x, seg_u

@@ -34,7 +34,7 @@ D_ROS = 1.0 / (2.0 + math.sqrt(2.0))
 E32 = 6.0 + math.sqrt(2.0)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def lu_factor(a, piv):
     """In-place LU with partial pivoting of a small dense matrix."""
     n = a.shape[0]
@@ -62,7 +62,7 @@ def lu_factor(a, piv):
                     a[i, j] -= f * a[k, j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def error_norm(err, y0, y1, rtol, atol):
     """Max over components of ``|err| / (atol + rtol max(|y0|, |y1|))``."""
     e = 0.0
@@ -74,7 +74,7 @@ def error_norm(err, y0, y1, rtol, atol):
     return e
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def hermite(theta, h, y0, f0, y1, f1, out):
     """Cubic Hermite interpolant at ``t0 + theta h`` with end slopes ``f0``, ``f1``
     (per unit time: the derivatives, or a method's own dense output recast)."""
@@ -88,7 +88,7 @@ def hermite(theta, h, y0, f0, y1, f1, out):
         out[i] = h00 * y0[i] + h10 * h * f0[i] + h01 * y1[i] + h11 * h * f1[i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
     """Forward-difference Jacobian over the feedback states ``order[:na]``:
     ``jac[a, i] = d f_i / d y_order[a]``.  The other states (the quadratures,
@@ -134,7 +134,7 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
     return nfe
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _factor(jac, order, diag, w, piv):
     """LU of ``W = diag I - J`` restricted to the feedback states (``w`` is na x
     na), with U's diagonal stored inverted (``_solve`` multiplies)."""
@@ -148,7 +148,7 @@ def _factor(jac, order, diag, w, piv):
         w[a, a] = 1.0 / w[a, a]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def _solve(w, piv, jac, order, diag, b, z, out):
     """Solve ``(diag I - J) out = b``.  The feedback block is ``W`` (factored by
     ``_factor``); the other rows are ``diag out_q - sum_a J[q, a] out_a = b_q``
@@ -183,7 +183,7 @@ def _solve(w, piv, jac, order, diag, b, z, out):
         out[q] = inv * s
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
     """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
 
@@ -259,7 +259,7 @@ R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.
                                      24.76722511418386, -6.594389125716872)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
     jac, w, piv, order, tdot = lin
@@ -345,7 +345,7 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0,
 C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
     n = N_STATE

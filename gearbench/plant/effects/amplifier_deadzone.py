@@ -11,7 +11,7 @@ from ... import layout as L
 from .base import Effect, Param, register
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def voltage(u, v0):
     """Voltage (V) the motor sees for command ``u`` (V)."""
     if u > v0:

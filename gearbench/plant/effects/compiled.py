@@ -11,7 +11,7 @@ from . import (amplifier_deadzone, coulomb_friction, load_spring,
                stribeck_friction, viscous_friction)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def motor_torque(p, w):
     """Torque of the effects on the rotor turning at ``w`` (rad/s), N m."""
     eps = p[L.P_FRIC_EPS_M]
@@ -20,7 +20,7 @@ def motor_torque(p, w):
             + viscous_friction.torque(w, p[L.P_VISC_M], p[L.P_VISC_M_NEG]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def load_torque(p, theta, w):
     """Torque of the effects on the output shaft at angle ``theta`` (rad) and speed ``w`` (rad/s), N m."""
     eps = p[L.P_FRIC_EPS_L]
@@ -31,7 +31,7 @@ def load_torque(p, theta, w):
             + p[L.P_BIAS])
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def input_voltage(p, u):
     """The voltage the motor sees for command ``u`` (V), before saturation."""
     return amplifier_deadzone.voltage(u, p[L.P_DEADZONE])

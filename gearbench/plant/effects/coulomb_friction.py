@@ -19,7 +19,7 @@ from .base import Effect, Param, register
 from .location import LOCATIONS, add, at_shaft, key, slot, torque_scale
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def torque(w, eps, t_pos, t_neg):
     """Friction torque on the body turning at ``w`` (rad/s), N m."""
     level = t_pos if w >= 0.0 else t_neg

@@ -13,7 +13,7 @@ from ... import layout as L
 from .base import Effect, Param, register
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def torque(theta_l, k, theta_0):
     """Spring torque on the load at output angle ``theta_l`` (rad), N m."""
     return -k * (theta_l - theta_0)

@@ -17,7 +17,7 @@ from .base import Effect, Param, register
 from .location import LOCATIONS, add, at_shaft, key, slot, speed_scale, torque_scale
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def torque(w, eps, t_s, t_c, w_s):
     """Friction torque on the body turning at ``w`` (rad/s), N m."""
     if w_s <= 0.0:

@@ -12,7 +12,7 @@ from .base import Effect, Param, register
 from .location import LOCATIONS, add, at_shaft, key, coefficient_scale, slot
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, inline="always", _nrt=False)
 def torque(w, c_pos, c_neg):
     """Viscous friction torque on the body turning at ``w`` (rad/s), N m."""
     return -(c_pos if w >= 0.0 else c_neg) * w
