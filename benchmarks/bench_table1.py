@@ -6,7 +6,8 @@
   gearbench's compiled solver (the experiment's: RODAS), best of 5, scores
   only, as ``gearbench run`` solves a cell when no plot or trace is asked for;
   ``run_trace_wall_s``: the same with the 1 kHz trace sampled as well.
-* ``baseline_run_wall_s``: the same cell the way a typical user would solve it:
+* ``baseline_run_wall_s``: the same cell the way a typical user would solve it
+  (best of 3 when a solve takes under a second, else one solve):
   ``scipy.integrate.solve_ivp(method="Radau")`` with a plain-Python right-hand
   side of the same plant (SPEC section 2, the memoryless clipped contact law),
   the same rtol, no events.
@@ -100,10 +101,13 @@ def compare_cell(plant, ctrl, prof, opts):
     ours, wall = _best_wall(plant, ctrl, prof, replace(opts, output_dt_s=10.0))
     _, wall_trace = _best_wall(plant, ctrl, prof, opts)
     ref = simulate(plant, ctrl, prof.segments(), 10.0, replace(opts, rtol=1e-9))
-    t0 = time.perf_counter()
-    sol = solve_ivp(python_rhs_factory(plant, ctrl, prof), (0.0, 10.0), np.zeros(6),
-                    method="Radau", rtol=opts.rtol, atol=opts.rtol * 1e-3)
-    base_wall = time.perf_counter() - t0
+    base_walls = []
+    while not base_walls or (len(base_walls) < 3 and sum(base_walls) < 2.0):  # best of 3 when cheap
+        t0 = time.perf_counter()
+        sol = solve_ivp(python_rhs_factory(plant, ctrl, prof), (0.0, 10.0), np.zeros(6),
+                        method="Radau", rtol=opts.rtol, atol=opts.rtol * 1e-3)
+        base_walls.append(time.perf_counter() - t0)
+    base_wall = min(base_walls)
     base_iae = math.degrees(sol.y[5, -1])
     return {"run_wall_s": wall, "run_trace_wall_s": wall_trace, "run_steps": ours.steps,
             "method": opts.method, "baseline_run_wall_s": base_wall,
