@@ -860,6 +860,12 @@ def run_study(results: str | Path, data_dir: str | Path | None = None, workers: 
     summary = build_summary(runs, by_delay, delays, lib, idm, fails, comp, figures, timings)
     summary["start_speed"] = _plain(starts)
     summary["carriage_force_negative_left_out"] = carriage_force_negative_left_out()
+    old = results / "emps.json"
+    if lib is None and old.is_file():
+        # the whole-library ladder takes an hour: a run without it keeps the last one's
+        earlier = json.loads(old.read_text()).get("library_ladder")
+        if earlier is not None:
+            summary["library_ladder"] = dict(earlier, from_earlier_run=True)
     results.mkdir(parents=True, exist_ok=True)
     write_text_atomic(results / "emps.json", json.dumps(summary, indent=2) + "\n")
     write_text_atomic(results / "emps.md", markdown(summary))
@@ -995,14 +1001,16 @@ def markdown(s: dict) -> str:
     if "library_ladder" in s:
         lib = s["library_ladder"]
         L += ["### The same ladder over the whole effect library", "",
-              "`diagnose(...)` with no `only`: every effect that can act on this plant and record.", "",
+              "`diagnose(...)` with no `only`: every effect that can act on this plant and record."
+              + (" Kept from an earlier run with the whole library (this run skipped it; "
+                 "`make emps-library` recomputes it)." if lib.get("from_earlier_run") else ""), "",
               "| step | train force error | parameters of the step |", "|---|---|---|"]
         for i, r in enumerate(lib["ladder"]):
             sp = ", ".join(f"{k} {_f(v, 4)}" for k, v in r["step_params"].items())
             L.append(f"| {'bare (mass)' if i == 0 else '+ ' + r['effect']} | {_pct(r['train_force_error_pct'])} | "
                      f"{sp if i else 'M ' + _f(r['params']['mass_kg'], 5)} |")
         last = lib["ladder"][-1]
-        L += ["", f"Final model: " + ", ".join(f"{k} {_f(v, 5)}" for k, v in last["params"].items()) +
+        L += ["", "Final model: " + ", ".join(f"{k} {_f(v, 5)}" for k, v in last["params"].items()) +
               f"; validation force error {_pct(lib['validation_force_error_pct'])}.  Stops: {lib['reason']}.  "
               f"Took {lib['seconds']:.0f} s.", "",
               "First-step candidates: " + "; ".join(
