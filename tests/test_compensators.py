@@ -204,7 +204,8 @@ def test_free_motor_in_the_clearance_hunts_without_rate_damping_and_settles_with
     assert freq == pytest.approx(w180 / (2 * math.pi), rel=0.15)
     calm = runs["damped_feedforward"]
     assert np.abs(np.degrees(calm.column(L.O_MOTOR)[late] / n - 0.5 * h)).max() < 1e-9
-    assert np.abs(calm.column(L.O_VOLTAGE)[late]).max() < 1e-9
+    # at rest: the voltage within what the solver resolves, rtol * Vmax
+    assert np.abs(calm.column(L.O_VOLTAGE)[late]).max() < exp.solver.rtol * m.max_voltage
     assert np.abs(calm.column(L.O_DELTA)).max() < 0.6 * h  # its target is delta = h/2: far from a flank
 
 
@@ -212,7 +213,8 @@ def test_free_motor_in_the_clearance_hunts_without_rate_damping_and_settles_with
 def test_profile3_dwell_no_longer_hunts_at_kp200(kind):
     """Profile 3's dwell (5-7 s) at Kp = 200: direction_feedforward hunts inside the
     clearance at 12 V; damped_feedforward holds the motor still and the voltage at ~0
-    (P: round-off, < 1e-9 V, the load on the set point; PI: the integrator's creep),
+    (P: below the solver's resolution rtol * Vmax, the load on the set point; PI: the
+    integrator's creep),
     with a handful of sign changes over the whole run."""
     from gearbench import layout as L
     exp = load_experiment(REPO / "experiments/compensators.yaml")
@@ -225,7 +227,8 @@ def test_profile3_dwell_no_longer_hunts_at_kp200(kind):
     dwell = (ours.time_s > 5.5) & (ours.time_s < 6.99)
     assert np.abs(ff.column(L.O_VOLTAGE)[dwell]).max() == pytest.approx(12.0)
     assert ff.switchings > 300
-    assert np.abs(ours.column(L.O_VOLTAGE)[dwell]).max() < (1e-9 if kind == "p" else 1e-3)
+    v_res = exp.solver.rtol * exp.plant.motor.max_voltage
+    assert np.abs(ours.column(L.O_VOLTAGE)[dwell]).max() < (v_res if kind == "p" else 1e-3)
     motor = np.degrees(ours.column(L.O_MOTOR)[dwell]) / exp.plant.gear.ratio
     assert np.ptp(motor) < 1e-3  # still (PI: creeping 0.0007 deg), not a 0.36-deg hunt
     assert np.ptp(np.degrees(ff.column(L.O_MOTOR)[dwell]) / exp.plant.gear.ratio) > 0.1
