@@ -19,6 +19,7 @@
   the plain baseline needs about a minute for the bang-bang one.
 
 Writes ``results/bench.json`` (merging with keys other benchmarks wrote).
+``--all`` compares every Table I cell instead (``results/bench_cells.csv``).
 """
 from __future__ import annotations
 
@@ -46,8 +47,9 @@ EXPERIMENT = REPO / "experiments" / "table1.yaml"
 
 
 def python_rhs_factory(plant, ctrl, prof):
-    """The SPEC plant and its controller (bang-bang or saturated P, the thesis's
-    set-point shift optional) as a plain-Python f(t, y); y[5] integrates |error|."""
+    """The SPEC plant and its controller (bang-bang, or saturated P or PI as the
+    thesis writes it, Kp (e + Ki int e); the thesis's set-point shift optional) as
+    a plain-Python f(t, y); y[5] integrates |error|, y[6] the controller's error."""
     m, g = plant.motor, plant.gear
     n, h = g.ratio, g.half_clearance
     k, d = g.mesh_stiffness, g.mesh_damping
@@ -62,7 +64,7 @@ def python_rhs_factory(plant, ctrl, prof):
         return seg.v[i] + seg.s[i] * (t - seg.t[i])
 
     def f(t, y):
-        i, thm, wm, delta, wl, _ = y
+        i, thm, wm, delta, wl, _, z = y
         dd = wm / n - wl
         if delta > h:
             tq = max(k * (delta - h) + d * dd, 0.0)
@@ -75,14 +77,15 @@ def python_rhs_factory(plant, ctrl, prof):
         if ctrl.kind == "bang_bang":
             u = math.copysign(m.max_voltage, e) if abs(e) > band else 0.0
         else:
-            u = min(max(kp * e, -m.max_voltage), m.max_voltage)
+            u = min(max(kp * (e + ctrl.ki * z), -m.max_voltage), m.max_voltage)
         thl = thm / n - delta
         return [(u - m.resistance * i - m.back_emf_constant * wm) / m.inductance,
                 wm,
                 (m.torque_constant * i - m.damping * wm - tq / n) / m.inertia,
                 dd,
                 (tq - bl * wl) / jl,
-                abs(r - thl)]
+                abs(r - thl),
+                e]
     return f
 
 
@@ -104,7 +107,7 @@ def compare_cell(plant, ctrl, prof, opts):
     base_walls = []
     while not base_walls or (len(base_walls) < 3 and sum(base_walls) < 2.0):  # best of 3 when cheap
         t0 = time.perf_counter()
-        sol = solve_ivp(python_rhs_factory(plant, ctrl, prof), (0.0, 10.0), np.zeros(6),
+        sol = solve_ivp(python_rhs_factory(plant, ctrl, prof), (0.0, 10.0), np.zeros(7),
                         method="Radau", rtol=opts.rtol, atol=opts.rtol * 1e-3)
         base_walls.append(time.perf_counter() - t0)
     base_wall = min(base_walls)
@@ -119,7 +122,31 @@ def compare_cell(plant, ctrl, prof, opts):
             "iae_ref_rel_err": abs(ours.iae_deg_s - ref.iae_deg_s) / ref.iae_deg_s}
 
 
+def all_cells() -> None:
+    """Every Table I cell against its Radau baseline (about 15 min on one core):
+    results/bench_cells.csv and the range of the speedups."""
+    import pandas as pd
+    exp = load_experiment(EXPERIMENT)
+    profiles = {name: load_profile(name) for name in exp.profiles}
+    rows = []
+    for name, ctrl in exp.runs():
+        r = compare_cell(exp.plant, ctrl, profiles[name], exp.solver)
+        rows.append({"profile": name, "controller": ctrl.kind, "kp": ctrl.kp if ctrl.kind != "bang_bang" else None,
+                     "shift": "on" if ctrl.shift else "off", "ours_ms": 1e3 * r["run_wall_s"],
+                     "radau_s": r["baseline_run_wall_s"], "speedup": r["speedup"],
+                     "iae_deg_s": r["iae_deg_s"], "radau_iae_deg_s": r["baseline_iae_deg_s"],
+                     "iae_rel_diff": r["iae_rel_diff"], "iae_ref_rel_err": r["iae_ref_rel_err"]})
+        print(rows[-1], flush=True)
+    df = pd.DataFrame(rows)
+    write_text_atomic(REPO / "results" / "bench_cells.csv", df.to_csv(index=False))
+    print(f"speedup over the {len(df)} cells: min {df.speedup.min():.0f}x, median {df.speedup.median():.0f}x, "
+          f"max {df.speedup.max():.0f}x; IAE vs the rtol-1e-9 reference: worst {df.iae_ref_rel_err.max():.1e}")
+
+
 def main() -> None:
+    if "--all" in sys.argv[1:]:
+        all_cells()
+        return
     exp = load_experiment(EXPERIMENT)
     plant = exp.plant
     prof = load_profile("profile1")

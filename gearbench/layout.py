@@ -34,7 +34,7 @@ P_BAND = 23        # bang-bang half band, rad (no output while |e| <= band/2)
 P_SHIFT = 24       # set-point shift, rad (0 = off)
 P_TORQUE_IN = 25   # 1.0: the input drives the motor shaft as a torque (no electrics)
 P_COMP = 26        # backlash compensator keying the set-point shift: COMP_* (P_SHIFT > 0 only)
-P_SPEED_EPS = 27   # speed resolution of the thesis shift's sign test, rad/s (set from the solver's atol)
+P_SPEED_EPS = 27   # speed threshold of the thesis shift's sign test, rad/s (simulate.SHIFT_SPEED_REL)
 P_RIGID = 28       # 1.0: rigid gear (no mesh, no clearance): rotor, pinion and load turn as one
 P_DRIVE_GAIN = 29  # torque input mode: rotor torque per unit of input (1 for N m; lead/(2 pi N) for N)
 P_KV = 30          # sampled position-velocity controller: velocity gain, V / (rad/s) at the output

@@ -269,7 +269,7 @@ def check_convergence(cfg, exp, rtols, rtols_low, results_dir, with_dopri=True):
                  bool(np.all(ratios >= target)), [round(float(r), 3) for r in ratios], target,
                  "shrink ratio per decade",
                  f"rtols {rtols}; IAE {[round(v, 10) for v in iae]} deg s; a 4th-order method whose "
-                 f"error estimate controls h^4: global error ~ rtol, 10x per decade")]
+                 f"error estimate controls h^4: global error ~ rtol, nominally 10x per decade")]
     iae2, d2, ratios2 = _converge(exp, cfg, rtols_low, "rosenbrock23")
     order = 10 ** (2 / 3)
     out.append(check("same with ode23s, against its order bound 10^(2/3) (x0.85), after the first decade",

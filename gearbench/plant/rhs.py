@@ -153,33 +153,14 @@ def feedback_states(p):
     load states of a rigid gear (the load rides on the pinion), the integrator
     unless the controller is PI or PID, the derivative filter unless PID.
     """
-    order = np.empty(N_STATE, dtype=np.int64)
-    na = 0
-    for i in range(N_STATE):
-        used = i < N_DYN
-        if i == X_PHI or i == X_WP:
-            used = p[P_HAS_SHAFT] > 0.0
-        elif i == X_DELTA or i == X_WL:
-            used = p[P_RIGID] == 0.0
-        elif i == X_I:
-            used = p[P_TORQUE_IN] == 0.0
-        elif i == X_ZI:
-            used = p[P_CTRL] == CTRL_PI or p[P_CTRL] == CTRL_PID
-        elif i == X_ZD:
-            used = p[P_CTRL] == CTRL_PID
-        if used:
-            order[na] = i
-            na += 1
-    nb_ = na
-    for i in range(N_STATE):
-        found = False
-        for a in range(nb_):
-            if order[a] == i:
-                found = True
-        if not found:
-            order[na] = i
-            na += 1
-    return order, nb_
+    used = np.zeros(N_STATE, dtype=np.bool_)
+    used[:N_DYN] = True
+    used[X_PHI] = used[X_WP] = p[P_HAS_SHAFT] > 0.0
+    used[X_DELTA] = used[X_WL] = p[P_RIGID] == 0.0
+    used[X_I] = p[P_TORQUE_IN] == 0.0
+    used[X_ZI] = p[P_CTRL] == CTRL_PI or p[P_CTRL] == CTRL_PID
+    used[X_ZD] = p[P_CTRL] == CTRL_PID
+    return np.concatenate((np.flatnonzero(used), np.flatnonzero(~used))), int(used.sum())
 
 
 @nb.njit(cache=True, _nrt=False)

@@ -1,7 +1,6 @@
 """Run traces in the SPEC's measurement format (section 3), and their figures."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pandas as pd

@@ -69,8 +69,8 @@ def guards(x, p, modes, ref, g):
         # Equation 1 flips the shift where the motor speed changes sign.  At
         # rest after an overdamped approach the speed decays to zero and
         # round-off alone would flip it (and start a chatter that the exact
-        # solution does not have), so a flip needs the speed past the
-        # solver's resolution of it, P_SPEED_EPS, on the other side.
+        # solution does not have), so a flip needs the speed past a tiny
+        # fixed threshold, P_SPEED_EPS (simulate.SHIFT_SPEED_REL), on the other side.
         eps = p[P_SPEED_EPS]
         g[G_SHIFT] = -x[X_WM] - eps if modes[M_SHIFT] > 0 else x[X_WM] - eps
 

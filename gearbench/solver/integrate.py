@@ -213,25 +213,23 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     x = x0.copy()
     order, na = feedback_states(p)
     lin = (np.empty((na, n)), np.empty((na, na)), np.empty(na, dtype=np.int64), order, np.empty(n))
-    vecs = np.empty((7, n))
+    vecs = np.empty((6, n))
     work = (np.zeros(N_MODES, dtype=np.int64), np.empty((WS_ROWS, n)), np.empty((4, N_GUARDS)),
             np.empty(6), np.zeros(seg_t.size))
-    _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x, t_out, rtol, atol, atol / rtol, hmax, method, max_steps,
-         outputs, stats, lin, vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], vecs[6], work)
+    _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, atol / rtol, hmax, method, max_steps,
+         outputs, stats, lin, vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], work)
     return outputs, stats, x, work[4]
 
 
 @nb.njit(cache=True, _nrt=False)
-def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x, t_out, rtol, atol, scale, hmax, method, max_steps,
-         outputs, stats, lin, f, xn, fn, s0, s1, xi, x0, work):
+def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, hmax, method, max_steps,
+         outputs, stats, lin, f, xn, fn, s0, s1, xi, work):
     """The loop of ``integrate``, on arrays it allocated: compiled without
     numba's reference-counting runtime, whose atomic increments on every array
-    view and call were 40 % of a step's time.  ``x`` (the initial state) is
+    view and call were 40 % of a step's time.  ``x`` (a copy of ``x0``) is
     advanced in place; ``s0``/``s1`` are the end slopes of each step's
-    interpolant (``hermite``); ``x0`` keeps the initial state."""
+    interpolant (``hermite``)."""
     n = N_STATE
-    for i in range(n):
-        x0[i] = x[i]
     modes, ws, gg, thq, seg_u = work
     g0 = gg[0]
     g1 = gg[1]

@@ -18,8 +18,10 @@ accepting, rejecting and choosing the next step is the controller's job
 * ``dopri5``: Dormand & Prince 5(4), explicit, for cross-checks (it pays for
   the mesh frequency at every step).
 
-All return the derivative at the step's end, so the step's cubic Hermite
-interpolant can locate events and sample the output.
+All return the derivative at the step's end (the next step's first stage) and
+the end slopes of a cubic interpolant over the step (``hermite``), on which the
+integration loop locates events and samples the output.  The Jacobian is the
+caller's (``jacobian``): the loop decides when it can be reused.
 """
 import math
 
