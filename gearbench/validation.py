@@ -185,13 +185,14 @@ def check_energy(tol=1e-6):
 
 
 # ----------------------------------------------------------- Table I helpers
-def _table(exp, quick, cells, method=None, plant=None):
+def _table(exp, quick, cells, method=None, plant=None, rtol=None):
     from .runner import load_profiles
     profiles = load_profiles(exp)
     specs = exp.runs()
     if quick:
         specs = [s for s in specs if s[0] in quick["profiles"]][:cells]
-    solver = replace(exp.solver, method=method or exp.solver.method, output_dt_s=exp.duration_s)
+    solver = replace(exp.solver, method=method or exp.solver.method, output_dt_s=exp.duration_s,
+                     rtol=rtol or exp.solver.rtol)
     out = []
     for prof, ctrl in specs:
         t0 = time.perf_counter()
@@ -222,29 +223,44 @@ def check_frequencies(cfg, base, exp, quick):
     return out, a
 
 
+def _agreement(a, b, lim):
+    rel = [abs(ra.iae_deg_s / rb.iae_deg_s - 1) for (_, ra, _), (_, rb, _) in zip(a, b)]
+    fails = [f"{k[0]} {k[1]}{'' if k[1] == 'bang_bang' else ' %g' % k[2]} shift-{'on' if k[3] else 'off'}: {r:.2%}"
+             for (k, _, _), r in zip(a, rel) if r > lim]
+    ok = max(rel) <= lim and all(r.ok for _, r, _ in a + b)
+    return ok, max(rel), a[int(np.argmax(rel))][0], fails
+
+
 def check_solvers(cfg, exp, quick, stiff=None):
+    """Both stiff methods against dopri5 on every Table I cell, at ``solver_rtol``
+    (tight enough that each method resolves the shifted cells' small speed
+    reversals) and, informational, at the experiment's own rtol; run times at the
+    experiment's rtol (the thesis's claim: ODE23s much faster than ODE45)."""
     cells = quick and quick["cells"]
+    lim = cfg["expected"]["solver_iae_tolerance"]
+    rt = cfg["expected"]["solver_rtol"]
+    method = exp.solver.method
+    out = []
+    explicit = _table(exp, quick, cells, method="dopri5", rtol=rt)
+    for name, m in ((f"{method} (stiff, default)", method), ("rosenbrock23 (ode23s)", "rosenbrock23")):
+        ok, worst, cell, fails = _agreement(_table(exp, quick, cells, method=m, rtol=rt), explicit, lim)
+        out.append(check(f"{name} vs dopri5 (ode45) at rtol {rt:g}, every Table I cell", ok, worst, lim,
+                         "relative IAE", f"{'%d cells' % (cells or 30)}; worst {cell}; over the limit: {fails or 'none'}"))
     a = stiff or _table(exp, quick, cells)
     b = _table(exp, quick, cells, method="dopri5")
     c = _table(exp, quick, cells, method="rosenbrock23")
-    rel = [abs(ra.iae_deg_s / rb.iae_deg_s - 1) for (_, ra, _), (_, rb, _) in zip(a, b)]
-    rel23 = [abs(rc.iae_deg_s / rb.iae_deg_s - 1) for (_, rc, _), (_, rb, _) in zip(c, b)]
-    worst = int(np.argmax(rel))
-    lim = cfg["expected"]["solver_iae_tolerance"]
+    ok, worst, cell, fails = _agreement(a, b, lim)
+    out.append(check(f"{method} vs dopri5 at the experiment's rtol {exp.solver.rtol:g} (informational)", ok, worst,
+                     lim, "relative IAE",
+                     f"worst {cell}; over the limit: {fails or 'none'}; at this rtol a shifted, chattering cell "
+                     f"turns on speed reversals the explicit method resolves differently (noise-driven flips)"))
     ta, tb, tc = (sum(w for *_, w in t) for t in (a, b, c))
     steps = [sum(r.steps for _, r, _ in t) for t in (a, b, c)]
-    fails = [f"{k[0]} {k[1]}{'' if k[1] == 'bang_bang' else ' %g' % k[2]} shift-{'on' if k[3] else 'off'}: {r:.2%}"
-             for (k, _, _), r in zip(a, rel) if r > lim]
-    method = exp.solver.method
-    return [check(f"{method} (stiff, default) vs dopri5 (ode45), every Table I cell",
-                  max(rel) <= lim and all(r.ok for _, r, _ in a + b), max(rel), lim, "relative IAE",
-                  f"{len(rel)} cells; worst {a[worst][0]}; over the limit: {fails or 'none'}"),
-            check("rosenbrock23 (ode23s) vs dopri5 (ode45), every Table I cell",
-                  max(rel23) <= lim and all(r.ok for _, r, _ in c), max(rel23), lim, "relative IAE",
-                  f"{len(rel23)} cells; the thesis's pair of methods"),
-            check("run time: ode23s faster than ode45 (thesis)", tc < tb, tc, tb, "s (ode23s vs ode45, total)",
-                  f"ode45 / ode23s = {tb / tc:.1f}x; {method}: {ta:.2f} s ({tb / ta:.1f}x faster than ode45); "
-                  f"steps {method} {steps[0]}, ode23s {steps[2]}, ode45 {steps[1]}")]
+    out.append(check("run time: ode23s faster than ode45 (thesis)", tc < tb, tc, tb, "s (ode23s vs ode45, total)",
+                     f"at rtol {exp.solver.rtol:g}: ode45 / ode23s = {tb / tc:.1f}x; {method}: {ta:.2f} s "
+                     f"({tb / ta:.1f}x faster than ode45); steps {method} {steps[0]}, ode23s {steps[2]}, "
+                     f"ode45 {steps[1]}"))
+    return out
 
 
 def _converge(exp, cfg, rtols, method):
@@ -373,6 +389,11 @@ WHY_IT_FAILS = [
     ("same with dopri5",
      "**Convergence with dopri5**: the IAE differences reach the event-location and round-off "
      "floor within a few decades, after which their ratios are noise."),
+    ("rodas4 vs dopri5 at the experiment's rtol",
+     "**Stiff vs explicit at rtol 1e-6**: with the thesis shift, a chattering cell turns on motor-speed "
+     "reversals smaller than what either method resolves at this tolerance; the explicit method's "
+     "noise near zero speed flips the shift where the stiff one does not. At the tight rtol of the "
+     "row above both resolve them and agree."),
     ("rosenbrock23 (ode23s) vs dopri5",
      "**ode23s vs ode45 within 0.5%**: a cell whose IAE depends on chatter (a set-point shift "
      "flipping at every overshoot) is sensitive to any perturbation, the solver included."),

@@ -1,7 +1,8 @@
 """`gearbench validate --quick --json`: the JSON shape, and the checks that must pass do pass.
 
 Known failures (measured, documented in results/validation.md) are not asserted to pass:
-the shaft agreement (and ode23s's agreement) on the chaotic shift cells.
+the shaft agreement on the chaotic shift cells, and the stiff-explicit agreement at the
+experiment's own rtol (informational; the agreement checked is at rtol 1e-8).
 """
 import json
 from pathlib import Path
@@ -14,7 +15,8 @@ from gearbench.cli import main
 REPO = Path(__file__).resolve().parents[1]
 MUST_PASS = ("restitution, unclipped", "contact duration, unclipped", "restitution, Dubowsky",
              "contact duration, with clip", "Dubowsky impact pair", "energy kept", "energy never rises",
-             "mesh mode", "shaft mode", "rodas4 (stiff, default) vs dopri5", "run time",
+             "mesh mode", "shaft mode", "rodas4 (stiff, default) vs dopri5", "rosenbrock23 (ode23s) vs dopri5",
+             "run time",
              "convergence of profile-3 bang-bang IAE, rodas4", "same with ode23s", "motor steady speed",
              "motor steady current")
 
