@@ -14,7 +14,7 @@ accepting, rejecting and choosing the next step is the controller's job
   solution for the error estimate.  Per step it costs the same Jacobian and one
   LU as ``rosenbrock23`` and four more right-hand sides, but its error falls
   as h^4 instead of h^2, so it needs far fewer steps at tight tolerances and
-  its global error shrinks ~10x per decade of tolerance (ode23s: 4.6x).
+  its global error shrinks nominally 10x per decade of tolerance (ode23s: 4.6x).
 * ``dopri5``: Dormand & Prince 5(4), explicit, for cross-checks (it pays for
   the mesh frequency at every step).
 
