@@ -142,36 +142,6 @@ def _resolved_impact(x, p, modes, atol):
 
 
 @nb.njit(cache=True, _nrt=False)
-def _initial_step(t, x, f, p, modes, ref, slope, rtol, atol, order_exp, y1, f1):
-    """A first step from ``(t, x)`` with ``f = f(t, x)`` (Hairer, Norsett &
-    Wanner I.4, as scipy's ``solve_ivp``): h0 from the sizes of x and f, then
-    h1 from the change of f over h0 held to the tolerance: min(100 h0, h1)."""
-    n = x.shape[0]
-    d0 = 0.0
-    d1 = 0.0
-    for i in range(n):
-        sc = atol[i] + rtol * abs(x[i])
-        d0 += (x[i] / sc) ** 2
-        d1 += (f[i] / sc) ** 2
-    d0 = math.sqrt(d0 / n)
-    d1 = math.sqrt(d1 / n)
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    for i in range(n):
-        y1[i] = x[i] + h0 * f[i]
-    rhs(y1, p, modes, ref + slope * h0, f1)
-    d2 = 0.0
-    for i in range(n):
-        sc = atol[i] + rtol * abs(x[i])
-        d2 += ((f1[i] - f[i]) / sc) ** 2
-    d2 = math.sqrt(d2 / n) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** order_exp
-    return min(100.0 * h0, h1)
-
-
-@nb.njit(cache=True, _nrt=False)
 def _stale_contact(x, p, modes, ref, g):
     """Fill ``g`` with the guards at ``x``; return the contact guard that is
     already past zero in the current mode (the mode is stale), else -1."""
@@ -316,11 +286,6 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
         rhs(x, p, modes, v0, f)
         nfe += 1
         jac_ok = False
-        if k > 0:
-            # a corner or jump of the input: start no longer than the step its
-            # new derivative allows (the last segment's step may be far too long)
-            h = min(h, _initial_step(t, x, f, p, modes, v0, s, rtol, atol, order_exp, xi, xn))
-            nfe += 1
         while t < tb:
             if nsteps + nrej + nev > max_steps:  # events too: no loop may spin without end
                 status = STATUS_MAX_STEPS
