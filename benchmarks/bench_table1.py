@@ -128,8 +128,10 @@ def compare_cell(plant, ctrl, prof, opts):
 
 
 def all_cells() -> None:
-    """Every Table I cell against its Radau baseline (about 15 min on one core):
-    results/bench_cells.csv and the range of the speedups."""
+    """Every Table I cell against its Radau baseline: results/bench_cells.csv,
+    rewritten after each cell, and the range of the speedups.  Slow: Radau takes
+    about a minute on each bang-bang cell, and on profile 3, P Kp=50 with the
+    shift it had not finished after 12 minutes (2026-11-21)."""
     import pandas as pd
     exp = load_experiment(EXPERIMENT)
     profiles = {name: load_profile(name) for name in exp.profiles}
