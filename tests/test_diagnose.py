@@ -15,7 +15,6 @@ longer pays on its own and the ladder ends with Stribeck + viscous friction at
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 

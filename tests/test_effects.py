@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from gearbench import layout as L
-from gearbench.experiment.files import load_plant, plant_from_dict
+from gearbench.experiment.files import load_plant
 from gearbench.experiment.writer import plant_to_yaml
 from gearbench.plant.components import Gear, Load, Motor, Plant
 from gearbench.plant.effects import REGISTRY, AddedEffect

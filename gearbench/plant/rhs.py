@@ -72,13 +72,21 @@ def applied_input(x, p, modes, ref):
 
     A sampled controller's output comes saturated from the integration loop.
     """
+    u = demanded_input(x, p, modes, ref)
+    if p[P_CTRL] == CTRL_SAMPLED_PV:
+        return u
+    return saturate(u, p[P_VMAX])
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def demanded_input(x, p, modes, ref):
+    """``applied_input`` before the saturation: the command, through any
+    amplifier dead zone when it is a voltage."""
     kind = p[P_CTRL]
     u = command(x, p, modes, ref, kind)
-    if kind == CTRL_SAMPLED_PV:
-        return u
-    if p[P_TORQUE_IN] == 0.0:
+    if kind != CTRL_SAMPLED_PV and p[P_TORQUE_IN] == 0.0:
         u = input_voltage(p, u)
-    return saturate(u, p[P_VMAX])
+    return u
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -188,9 +196,7 @@ def linear_region(x, p, modes, ref):
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         return 0
-    u = command(x, p, modes, ref, kind)
-    if p[P_TORQUE_IN] == 0.0:
-        u = input_voltage(p, u)
+    u = demanded_input(x, p, modes, ref)
     vmax = p[P_VMAX]
     return 1 if u >= vmax else (-1 if u <= -vmax else 0)
 

@@ -34,13 +34,13 @@ def _sign(v):
 
 
 @nb.njit(cache=True, _nrt=False)
-def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1):
+def _step(method, t, x, f, h, p, modes, ref_t, s, rtol, atol, ws, lin, xn, fn, s0, s1):
     """One step of the chosen method (``layout.METHOD_*``): (error norm, rhs evaluations)."""
     if method == METHOD_RODAS4:
-        return rodas4(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
+        return rodas4(t, x, f, h, p, modes, ref_t, s, rtol, atol, ws, lin, xn, fn, s0, s1)
     if method == METHOD_DOPRI:
-        return dopri5(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
-    return rosenbrock23(t, x, f, h, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
+        return dopri5(t, x, f, h, p, modes, ref_t, s, rtol, atol, ws, lin, xn, fn, s0, s1)
+    return rosenbrock23(t, x, f, h, p, modes, ref_t, s, rtol, atol, ws, lin, xn, fn, s0, s1)
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -302,7 +302,7 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                     jac_ok = True
                     jac_region = region
                 quadrature_rows(x, p, ref_t, s, order, na, jac, tdot)
-            err, ne = _step(method, t, x, f, hh, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
+            err, ne = _step(method, t, x, f, hh, p, modes, ref_t, s, rtol, atol, ws, lin, xn, fn, s0, s1)
             nfe += ne
             if not (err <= 1.0):
                 nrej += 1
@@ -371,7 +371,7 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                 if hs < 1e-13 * max(1.0, abs(t)):
                     hs = 0.0
                 elif theta < 1.0:
-                    err, ne = _step(method, t, x, f, hs, p, modes, ref_t, s, rtol, atol, scale, ws, lin, xn, fn, s0, s1)
+                    err, ne = _step(method, t, x, f, hs, p, modes, ref_t, s, rtol, atol, ws, lin, xn, fn, s0, s1)
                     nfe += ne
                     # The root was found on the long step's interpolant, whose
                     # error is not controlled; the re-taken step can end short

@@ -5,9 +5,10 @@ accepting, rejecting and choosing the next step is the controller's job
 * ``rosenbrock23``: the modified Rosenbrock triple of Shampine & Reichelt
   (1997), MATLAB/Simulink's ``ode23s``: second order, L-stable, a third-order
   error estimate.  L-stability lets it step straight over the stiff mesh mode
-  while the teeth stay in contact.  The Jacobian is taken by finite differences
-  over the dynamic states (the quadratures feed nothing back, so the linear
-  system is block lower-triangular and only the dynamic block is factored).
+  while the teeth stay in contact.  Only the block of the states the
+  right-hand side reads is factored; the others (the error integrals, states
+  this plant and controller never read) feed nothing back and are solved by
+  substitution (``_solve``).
 * ``rodas4``: the L-stable, stiffly accurate Rosenbrock method RODAS of
   Hairer & Wanner (Solving ODEs II, section IV.7; coefficients of their
   ``rodas.f``, method 1): fourth order, six stages, an embedded third-order
@@ -186,7 +187,7 @@ def _solve(w, piv, jac, order, diag, b, z, out):
 
 
 @nb.njit(cache=True, _nrt=False)
-def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
+def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
 
     ``ref(t) = ref0 + slope (t - t_seg)`` enters through ``ref0`` (the value at
@@ -262,7 +263,7 @@ R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.
 
 
 @nb.njit(cache=True, _nrt=False)
-def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
+def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
     jac, w, piv, order, tdot = lin
     n = N_STATE
@@ -348,7 +349,7 @@ C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
 @nb.njit(cache=True, _nrt=False)
-def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, scale, ws, lin, ynew, fnew, s0, s1):
+def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
     n = N_STATE
     k2 = ws[0]
