@@ -101,7 +101,8 @@ M_CONTACT = 0  # -1, 0 (free flight), +1
 M_BB = 1       # bang-bang output sign -1, 0, +1
 M_SHIFT = 2    # sign used by the set-point shift: thesis: +1 when motor speed >= 0, else -1;
                # COMP_DIRECTION: the set point's last direction (0 before it first moves)
-N_MODES = 3
+M_SAT = 3      # side of the amplifier's limit a continuous law is on: -1, 0 (inside), +1
+N_MODES = 4
 
 # ---- guards (an event fires when a guard goes from < 0 to >= 0) ----------
 G_ENTER_POS = 0
@@ -110,7 +111,8 @@ G_LEAVE = 2
 G_BB_A = 3
 G_BB_B = 4
 G_SHIFT = 5
-N_GUARDS = 6
+G_SAT = 6      # a continuous law reaches or leaves the amplifier's limit (V)
+N_GUARDS = 7
 
 # ---- sampled output columns ----------------------------------------------
 O_SETPOINT = 0     # rad

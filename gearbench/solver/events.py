@@ -7,7 +7,12 @@ The right-hand side is smooth inside a mode; it changes character when
 * the bang-bang controller switches (``|e|`` crosses ``band/2``),
 * the set-point shift flips (the motor speed crosses zero; thesis compensator
   only: the set-point-direction compensator switches at the profile's corners,
-  which the integration loop handles between segments).
+  which the integration loop handles between segments),
+* a continuous law (P, PI, PID) reaches or leaves the amplifier's limit: a
+  kink, not a jump, but the Jacobian changes there, and a step straddling it
+  with the Jacobian of the other side is a Rosenbrock step with a wrong
+  Jacobian (the loop's feedback treated explicitly): its error estimate blows up
+  and the step is rejected again and again.
 
 With the unclipped ``linear`` contact law the teeth separate when the
 penetration returns to zero (guard ``-cm k p``, torque units), not on the
@@ -22,15 +27,17 @@ teeth passing through each other when a root lands just short of a crossing.
 import numba as nb
 
 from ..control.laws import control_error
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_RIGID, G_BB_A, G_BB_B, G_ENTER_NEG,
-                      G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
-                      LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
-                      P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, X_DELTA, X_WL, X_WM,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_P, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, P_RIGID,
+                      G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT, M_SAT,
+                      M_SHIFT, LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
+                      P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, P_VMAX, X_DELTA, X_WL, X_WM,
                       X_WP)
 from ..plant.contact import entry_guard, unclipped
-from ..plant.rhs import mesh_rate, rhs
+from ..plant.rhs import demanded_input, linear_region, mesh_rate, rhs
 
 INACTIVE = -1.0
+REACH_MARGIN = 1.00001
+REACH_FLOOR = 0.1
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -65,6 +72,8 @@ def guards(x, p, modes, ref, g):
             g[G_BB_A] = band - e
         else:
             g[G_BB_A] = band + e
+    else:
+        g[G_SAT] = saturation_guard(x, p, modes, ref)
     if p[P_SHIFT] > 0.0 and p[P_COMP] == COMP_THESIS:
         # Equation 1 flips the shift where the motor speed changes sign.  At
         # rest after an overdamped approach the speed decays to zero and
@@ -75,9 +84,53 @@ def guards(x, p, modes, ref, g):
         g[G_SHIFT] = -x[X_WM] - eps if modes[M_SHIFT] > 0 else x[X_WM] - eps
 
 
+@nb.njit(cache=True, inline="always", _nrt=False)
+def continuous_law(p):
+    """True for the P, PI and PID laws, whose output meets the amplifier's
+    limit continuously (guard ``G_SAT``)."""
+    kind = p[P_CTRL]
+    return kind == CTRL_P or kind == CTRL_PI or kind == CTRL_PID
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def saturation_guard(x, p, modes, ref):
+    """Guard ``G_SAT`` of a continuous law, V: ``|u| - Vmax`` inside the
+    limits, ``Vmax - side u`` on one (``u`` the demanded input)."""
+    u = demanded_input(x, p, modes, ref)
+    side = modes[M_SAT]
+    return abs(u) - p[P_VMAX] if side == 0 else p[P_VMAX] - side * u
+
+
 @nb.njit(cache=True, _nrt=False)
-def classify_bangbang(x, p, modes, ref):
-    """Set the bang-bang mode from the error (used where the error jumps)."""
+def saturation_reach(x, f, p, modes, ref, slope, h, xe):
+    """The step to take instead of ``h`` (s) so that a continuous law does
+    not cross the amplifier's limit far inside it.
+
+    A step that straddles the limit with the Jacobian of the side it starts on
+    treats the loop's feedback (or its absence) explicitly, and its error
+    estimate explodes; it would be rejected and shrunk by 5x at a time until
+    it no longer reached the limit.  Instead, predict the crossing along the
+    tangent (the law is affine in the state and the set point is a ramp, so
+    the prediction is the guard's first-order Taylor step) and end the step
+    just past it, where the event is located on an accepted step.  ``xe``:
+    scratch."""
+    g0 = saturation_guard(x, p, modes, ref)
+    if g0 >= 0.0:
+        return h
+    for i in range(x.shape[0]):
+        xe[i] = x[i] + h * f[i]
+    g1 = saturation_guard(xe, p, modes, ref + slope * h)
+    if g1 <= 0.0:
+        return h
+    return min(h, max(h * g0 / (g0 - g1) * REACH_MARGIN, REACH_FLOOR * h))
+
+
+@nb.njit(cache=True, _nrt=False)
+def classify_controller(x, p, modes, ref):
+    """Set the controller's modes from the state: the bang-bang output, or a
+    continuous law's side of the amplifier's limit (used where the error jumps,
+    or where a step left a mode stale)."""
+    modes[M_SAT] = linear_region(x, p, modes, ref) if continuous_law(p) else 0
     if p[P_CTRL] != CTRL_BANGBANG:
         modes[M_BB] = 0
         return
@@ -109,7 +162,7 @@ def classify(x, p, modes, ref):
         modes[M_SHIFT] = 1 if x[X_WM] >= 0.0 else -1
     else:
         modes[M_SHIFT] = 0  # no direction until the set point first moves
-    classify_bangbang(x, p, modes, ref)
+    classify_controller(x, p, modes, ref)
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -152,7 +205,13 @@ def apply_event(which, x, p, modes, ref, f):
     if which == G_SHIFT:
         modes[M_SHIFT] = -modes[M_SHIFT]
         # the effective set point jumps by twice the shift
-        classify_bangbang(x, p, modes, ref)
+        classify_controller(x, p, modes, ref)
+        return 0
+    if which == G_SAT:
+        if modes[M_SAT] == 0:
+            modes[M_SAT] = 1 if demanded_input(x, p, modes, ref) > 0.0 else -1
+        else:
+            modes[M_SAT] = 0
         return 0
     return 0
 

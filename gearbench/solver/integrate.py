@@ -12,8 +12,8 @@ import math
 import numba as nb
 import numpy as np
 
-from ..control.laws import command, saturate
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_REF_SLOPE, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SHIFT, M_BB, M_CONTACT, M_SHIFT,
+from ..control.laws import saturate
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_REF_SLOPE, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT, M_SAT, M_SHIFT,
                       METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -24,7 +24,8 @@ from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_
                       X_ISE, X_DELTA, X_THM, X_WL, X_WM)
 from ..plant.rhs import (applied_input, feedback_states, linear_region, load_angle, mesh_rate, mesh_torque,
                          piecewise_linear, quadrature_rows, rhs)
-from .events import apply_event, classify, classify_bangbang, direction_of_segment, guards
+from .events import (apply_event, classify, classify_controller, continuous_law, direction_of_segment, guards,
+                     saturation_reach)
 from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
 
 
@@ -182,7 +183,7 @@ def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
     stats = np.zeros(N_STATS)
     x = x0.copy()
     order, na = feedback_states(p)
-    lin = (np.empty((na, n)), np.empty((na, na)), np.empty(na, dtype=np.int64), order, np.empty(n))
+    lin = (np.empty((na, n)), np.empty((na, 2 * na)), order, np.empty(n))
     vecs = np.empty((6, n))
     work = (np.zeros(N_MODES, dtype=np.int64), np.empty((WS_ROWS, n)), np.empty((4, N_GUARDS)),
             np.empty(6), np.zeros(seg_t.size))
@@ -206,8 +207,8 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
     gt = gg[2]
     g2 = gg[3]
     jac = lin[0]
-    order = lin[3]
-    tdot = lin[4]
+    order = lin[2]
+    tdot = lin[3]
     na = lin[1].shape[0]
     # The Jacobian is taken again only when it may have changed: never for a
     # step re-taken from the same point (after a rejection, or to land on an
@@ -219,6 +220,7 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
     jac_region = 0
     shift_on = p[P_SHIFT] > 0.0 and p[P_CTRL] != CTRL_OPEN and p[P_COMP] == COMP_THESIS
     bangbang = p[P_CTRL] == CTRL_BANGBANG
+    sat_events = continuous_law(p)
     skip = -1  # a guard refused where it stands, ignored until time moves on
     vmax = p[P_VMAX]
     sampled = p[P_CTRL] == CTRL_SAMPLED_PV
@@ -281,7 +283,7 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
             modes[M_SHIFT] = direction_of_segment(k, seg_t, seg_v, seg_s, modes[M_SHIFT])
         p[P_REF_SLOPE] = s  # the feedforward's set-point speed (the loop owns this slot)
         if closed:
-            classify_bangbang(x, p, modes, v0)
+            classify_controller(x, p, modes, v0)
             max_err = max(max_err, abs(v0 - load_angle(x, p)))
         rhs(x, p, modes, v0, f)
         nfe += 1
@@ -291,14 +293,18 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                 status = STATUS_MAX_STEPS
                 break
             hh = min(h, hmax)
+            if sat_events:
+                hh = saturation_reach(x, f, p, modes, v0 + s * (t - ta), s, hh, xi)
             last = hh >= (tb - t) * (1.0 - 1e-12)
             if last:
                 hh = tb - t
             ref_t = v0 + s * (t - ta)
             if implicit:
-                region = linear_region(x, p, modes, ref_t) if linear else 0
+                # a continuous law's side of the limit is its mode (on the limit
+                # itself, after a saturation event, the side it is heading to)
+                region = modes[M_SAT] if sat_events else linear_region(x, p, modes, ref_t)
                 if not jac_ok or region != jac_region:
-                    nfe += jacobian(t, x, f, p, modes, ref_t, s, scale, lin, ws[0], ws[1])
+                    nfe += jacobian(t, x, f, p, modes, ref_t, s, scale, region, lin, ws[0], ws[1])
                     jac_ok = True
                     jac_region = region
                 quadrature_rows(x, p, ref_t, s, order, na, jac, tdot)
@@ -397,11 +403,8 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                     _write_output(outputs[io], xi, p, modes, v0 + s * (t_out[io] - ta),
                                   r0 if sampled else v0 + s * (t_out[io] - ta))
                     io += 1
-                if closed:
-                    hermite(0.5, hh, x, s0, xn, s1, xi)
-                    u_mid = command(xi, p, modes, ref_t + 0.5 * s * hh, p[P_CTRL])
-                    if abs(u_mid) >= vmax:
-                        t_sat += hh
+                if closed and (modes[M_SAT] != 0 or modes[M_BB] != 0):
+                    t_sat += hh  # the limit's crossings are events: a step is on one side
                 for i in range(n):
                     x[i] = xn[i]
                     f[i] = fn[i]
@@ -460,11 +463,13 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
             # or a shift flip whose crossing a step hid): a bang-bang stuck on
             # drives the motor away at full voltage.  Their right mode follows
             # from the state alone, so re-derive it.
-            if hh > 0.0 and (g2[G_BB_A] > 0.0 or g2[G_BB_B] > 0.0 or g2[G_SHIFT] > 0.0):
+            # (a saturation side only past the solver's resolution, rtol Vmax: a
+            # step landed on the limit is on it within round-off)
+            if hh > 0.0 and (g2[G_BB_A] > 0.0 or g2[G_BB_B] > 0.0 or g2[G_SHIFT] > 0.0 or g2[G_SAT] > u_res):
                 if g2[G_SHIFT] > 0.0:
                     apply_event(G_SHIFT, x, p, modes, ref_now, xi)  # flips, re-derives the bang-bang
                 else:
-                    classify_bangbang(x, p, modes, ref_now)
+                    classify_controller(x, p, modes, ref_now)
                 nev += 1
                 rhs(x, p, modes, ref_now, f)
                 nfe += 1

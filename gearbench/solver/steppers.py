@@ -6,14 +6,14 @@ accepting, rejecting and choosing the next step is the controller's job
   (1997), MATLAB/Simulink's ``ode23s``: second order, L-stable, a third-order
   error estimate.  L-stability lets it step straight over the stiff mesh mode
   while the teeth stay in contact.  Only the block of the states the
-  right-hand side reads is factored; the others (the error integrals, states
+  right-hand side reads is inverted; the others (the error integrals, states
   this plant and controller never read) feed nothing back and are solved by
   substitution (``_solve``).
 * ``rodas4``: the L-stable, stiffly accurate Rosenbrock method RODAS of
   Hairer & Wanner (Solving ODEs II, section IV.7; coefficients of their
   ``rodas.f``, method 1): fourth order, six stages, an embedded third-order
   solution for the error estimate.  Per step it costs the same Jacobian and one
-  LU as ``rosenbrock23`` and four more right-hand sides, but its error falls
+  inverse as ``rosenbrock23`` and four more right-hand sides, but its error falls
   as h^4 instead of h^2, so it needs far fewer steps at tight tolerances and
   its global error shrinks nominally 10x per decade of tolerance (ode23s: 4.6x).
 * ``dopri5``: Dormand & Prince 5(4), explicit, for cross-checks (it pays for
@@ -35,34 +35,6 @@ EPS = 2.220446049250313e-16
 WS_ROWS = 11  # scratch vectors every stepper fits in
 D_ROS = 1.0 / (2.0 + math.sqrt(2.0))
 E32 = 6.0 + math.sqrt(2.0)
-
-
-@nb.njit(cache=True, _nrt=False)
-def lu_factor(a, piv):
-    """In-place LU with partial pivoting of a small dense matrix."""
-    n = a.shape[0]
-    for k in range(n):
-        m = k
-        big = abs(a[k, k])
-        for i in range(k + 1, n):
-            if abs(a[i, k]) > big:
-                big = abs(a[i, k])
-                m = i
-        piv[k] = m
-        if m != k:
-            for j in range(n):
-                tmp = a[k, j]
-                a[k, j] = a[m, j]
-                a[m, j] = tmp
-        if a[k, k] == 0.0:
-            continue
-        inv = 1.0 / a[k, k]
-        for i in range(k + 1, n):
-            a[i, k] *= inv
-            f = a[i, k]
-            if f != 0.0:
-                for j in range(k + 1, n):
-                    a[i, j] -= f * a[k, j]
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -92,7 +64,7 @@ def hermite(theta, h, y0, f0, y1, f1, out):
 
 
 @nb.njit(cache=True, _nrt=False)
-def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
+def jacobian(t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp):
     """Forward-difference Jacobian over the feedback states ``order[:na]``:
     ``jac[a, i] = d f_i / d y_order[a]``.  The other states (the quadratures,
     and dynamic states this plant and controller never read: a shaft's twist
@@ -101,15 +73,16 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
     derivative ``tdot = d f / d t`` through the set point's slope.
 
     A difference never straddles the amplifier's limit: where the forward
-    point lies on the other side (``linear_region``), the backward one is
-    used, so the Jacobian is that of the piece the step starts on (a reused
-    Jacobian that mixed two pieces would spoil every step after it).
+    point lies off ``region`` (the side of the limit the step is on,
+    ``linear_region``'s values), the backward one is used, so the Jacobian is
+    that of the piece the step is on (a reused Jacobian that mixed two pieces
+    would spoil every step after it).  On the limit itself, after a located
+    saturation event, ``region`` is the side the solution is heading to.
     Writes ``lin``'s ``jac`` and ``tdot``; returns the right-hand-side
     evaluations spent."""
-    jac, w, piv, order, tdot = lin
+    jac, w, order, tdot = lin
     n = N_STATE
     na = w.shape[0]
-    region = linear_region(y, p, modes, ref0)
     for a in range(na):
         j = order[a]
         for i in range(n):
@@ -138,52 +111,71 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, lin, ytmp, ftmp):
 
 
 @nb.njit(cache=True, _nrt=False)
-def _factor(jac, order, diag, w, piv):
-    """LU of ``W = diag I - J`` restricted to the feedback states (``w`` is na x
-    na), with U's diagonal stored inverted (``_solve`` multiplies)."""
+def _factor(jac, order, diag, w):
+    """Invert ``W = diag I - J`` restricted to the feedback states: ``w`` is
+    na x 2 na, and Gauss-Jordan elimination with partial pivoting on ``[W | I]``
+    leaves ``W^-1`` in ``w[:, na:]``.  An explicit inverse, because each of a
+    step's six solves is then a matrix-vector product whose rows are
+    independent; forward and back substitution would chain every operation
+    of a solve, and the stages are already a chain of solves."""
     na = w.shape[0]
+    m2 = 2 * na
     for a in range(na):
         for b in range(na):
             w[a, b] = -jac[b, order[a]]
+            w[a, na + b] = 0.0
         w[a, a] += diag
-    lu_factor(w, piv)
-    for a in range(na):
-        w[a, a] = 1.0 / w[a, a]
+        w[a, na + a] = 1.0
+    for k in range(na):
+        m = k
+        big = abs(w[k, k])
+        for i in range(k + 1, na):
+            if abs(w[i, k]) > big:
+                big = abs(w[i, k])
+                m = i
+        if m != k:
+            for j in range(k, m2):
+                tmp = w[k, j]
+                w[k, j] = w[m, j]
+                w[m, j] = tmp
+        inv = 1.0 / w[k, k]  # singular: inf, and the step's error norm rejects it
+        for j in range(k, m2):
+            w[k, j] *= inv
+        for i in range(na):
+            if i != k:
+                c = w[i, k]
+                if c != 0.0:
+                    for j in range(k, m2):
+                        w[i, j] -= c * w[k, j]
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def _solve(w, piv, jac, order, diag, b, z, out):
-    """Solve ``(diag I - J) out = b``.  The feedback block is ``W`` (factored by
+def _solve(w, jac, order, diag, b, zb, z, out):
+    """Solve ``(diag I - J) out = b``.  The feedback block is ``W`` (inverted by
     ``_factor``); the other rows are ``diag out_q - sum_a J[q, a] out_a = b_q``
-    (their own columns are zero), solved by substitution.  ``z`` is scratch."""
+    (their own columns are zero), solved by substitution.  ``zb``, ``z``:
+    scratch (``na`` entries)."""
     na = w.shape[0]
     for a in range(na):
-        z[a] = b[order[a]]
-    for k in range(na):  # the row swaps of lu_factor, then L y = P b, U z = y
-        m = piv[k]
-        if m != k:
-            tmp = z[k]
-            z[k] = z[m]
-            z[m] = tmp
-    for i in range(na):
-        s = z[i]
-        for j in range(i):
-            s -= w[i, j] * z[j]
-        z[i] = s
-    for i in range(na - 1, -1, -1):
-        s = z[i]
-        for j in range(i + 1, na):
-            s -= w[i, j] * z[j]
-        z[i] = s * w[i, i]
+        zb[a] = b[order[a]]
+    for a in range(na):
+        s = 0.0
+        for c in range(na):
+            s += w[a, na + c] * zb[c]
+        z[a] = s
+    # the substitution, over every row at once (contiguous, so it vectorises;
+    # the feedback rows it also fills are overwritten just after)
+    inv = 1.0 / diag
+    for i in range(N_STATE):
+        out[i] = b[i]
+    for a in range(na):
+        za = z[a]
+        for i in range(N_STATE):
+            out[i] += jac[a, i] * za
+    for i in range(N_STATE):
+        out[i] *= inv
     for a in range(na):
         out[order[a]] = z[a]
-    inv = 1.0 / diag
-    for c in range(na, N_STATE):
-        q = order[c]
-        s = b[q]
-        for a in range(na):
-            s += jac[a, q] * z[a]
-        out[q] = inv * s
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -195,11 +187,12 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, 
     ``ynew``/``fnew``, the end slopes of the step's cubic interpolant into
     ``s0``/``s1`` (see ``hermite``; here the derivatives themselves), and
     returns ``(error norm, rhs evaluations)``.
-    ``ws`` is a (WS_ROWS, N_STATE) scratch array; ``lin = (jac, w, piv,
-    order, tdot)`` holds the Jacobian and ``d f/d t`` of ``jacobian`` (taken by
-    the caller, who decides when it can be reused) and the LU scratch.
+    ``ws`` is a (WS_ROWS, N_STATE) scratch array; ``lin = (jac, w, order,
+    tdot)`` holds the Jacobian and ``d f/d t`` of ``jacobian`` (taken by the
+    caller, who decides when it can be reused), the scratch for ``W``'s
+    inverse and the states' order (``feedback_states``).
     """
-    jac, w, piv, order, tdot = lin
+    jac, w, order, tdot = lin
     n = N_STATE
     hd = h * D_ROS
     ytmp = ws[0]
@@ -210,20 +203,21 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, 
     f1 = ws[6]
     rhsv = ws[7]
     z = ws[10]
+    zb = ws[2]
     # W = I - h d J, written as (1/(h d)) I - J to share the solver with RODAS
     diag = 1.0 / hd
-    _factor(jac, order, diag, w, piv)
+    _factor(jac, order, diag, w)
     # k1 = W^-1 (f0 + h d T)
     for i in range(n):
         rhsv[i] = (f0[i] + hd * tdot[i]) * diag
-    _solve(w, piv, jac, order, diag, rhsv, z, k1)
+    _solve(w, jac, order, diag, rhsv, zb, z, k1)
     for i in range(n):
         ytmp[i] = y[i] + 0.5 * h * k1[i]
     rhs(ytmp, p, modes, ref0 + slope * 0.5 * h, f1)
     # k2 = W^-1 (f1 - k1) + k1
     for i in range(n):
         rhsv[i] = (f1[i] - k1[i]) * diag
-    _solve(w, piv, jac, order, diag, rhsv, z, k2)
+    _solve(w, jac, order, diag, rhsv, zb, z, k2)
     for i in range(n):
         k2[i] += k1[i]
         ynew[i] = y[i] + h * k2[i]
@@ -231,7 +225,7 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, 
     # k3 = W^-1 (f2 - e32 (k2 - f1) - 2 (k1 - f0) + h d T)
     for i in range(n):
         rhsv[i] = (fnew[i] - E32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f0[i]) + hd * tdot[i]) * diag
-    _solve(w, piv, jac, order, diag, rhsv, z, k3)
+    _solve(w, jac, order, diag, rhsv, zb, z, k3)
     for i in range(n):
         ftmp[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
         s0[i] = f0[i]
@@ -265,7 +259,7 @@ R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.
 @nb.njit(cache=True, _nrt=False)
 def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
-    jac, w, piv, order, tdot = lin
+    jac, w, order, tdot = lin
     n = N_STATE
     ytmp = ws[0]
     ftmp = ws[1]
@@ -277,33 +271,34 @@ def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, 
     k6 = ws[8]
     rhsv = ws[9]
     z = ws[10]
+    zb = ws[2]
     diag = 1.0 / (R_GAMMA * h)
-    _factor(jac, order, diag, w, piv)
+    _factor(jac, order, diag, w)
     hinv = 1.0 / h
     for i in range(n):
         rhsv[i] = f0[i] + h * R_D1 * tdot[i]
-    _solve(w, piv, jac, order, diag, rhsv, z, k1)
+    _solve(w, jac, order, diag, rhsv, zb, z, k1)
     # stage 2
     for i in range(n):
         ytmp[i] = y[i] + R_A21 * k1[i]
     rhs(ytmp, p, modes, ref0 + slope * R_C2 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D2 * tdot[i] + hinv * R_C21 * k1[i]
-    _solve(w, piv, jac, order, diag, rhsv, z, k2)
+    _solve(w, jac, order, diag, rhsv, zb, z, k2)
     # stage 3
     for i in range(n):
         ytmp[i] = y[i] + R_A31 * k1[i] + R_A32 * k2[i]
     rhs(ytmp, p, modes, ref0 + slope * R_C3 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D3 * tdot[i] + hinv * (R_C31 * k1[i] + R_C32 * k2[i])
-    _solve(w, piv, jac, order, diag, rhsv, z, k3)
+    _solve(w, jac, order, diag, rhsv, zb, z, k3)
     # stage 4
     for i in range(n):
         ytmp[i] = y[i] + R_A41 * k1[i] + R_A42 * k2[i] + R_A43 * k3[i]
     rhs(ytmp, p, modes, ref0 + slope * R_C4 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D4 * tdot[i] + hinv * (R_C41 * k1[i] + R_C42 * k2[i] + R_C43 * k3[i])
-    _solve(w, piv, jac, order, diag, rhsv, z, k4)
+    _solve(w, jac, order, diag, rhsv, zb, z, k4)
     # stage 5 (at t + h)
     ref1 = ref0 + slope * h
     for i in range(n):
@@ -311,7 +306,7 @@ def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, 
     rhs(ytmp, p, modes, ref1, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + hinv * (R_C51 * k1[i] + R_C52 * k2[i] + R_C53 * k3[i] + R_C54 * k4[i])
-    _solve(w, piv, jac, order, diag, rhsv, z, k5)
+    _solve(w, jac, order, diag, rhsv, zb, z, k5)
     # stage 6: from the embedded (third-order) solution to the fourth-order one
     for i in range(n):
         ytmp[i] += k5[i]
@@ -319,7 +314,7 @@ def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, 
     for i in range(n):
         rhsv[i] = ftmp[i] + hinv * (R_C61 * k1[i] + R_C62 * k2[i] + R_C63 * k3[i] + R_C64 * k4[i]
                                     + R_C65 * k5[i])
-    _solve(w, piv, jac, order, diag, rhsv, z, k6)
+    _solve(w, jac, order, diag, rhsv, zb, z, k6)
     for i in range(n):
         ynew[i] = ytmp[i] + k6[i]
     rhs(ynew, p, modes, ref1, fnew)
