@@ -102,9 +102,12 @@ M_BB = 1       # bang-bang output sign -1, 0, +1
 M_SHIFT = 2    # sign used by the set-point shift: thesis: +1 when motor speed >= 0, else -1;
                # COMP_DIRECTION: the set point's last direction (0 before it first moves)
 M_SAT = 3      # side of the amplifier's limit a continuous law is on: -1, 0 (inside), +1
-N_MODES = 4
+M_DAMP = 4     # ElastoBacklash in contact: 1 while the damping torque is limited to the
+               # spring torque (T = 2 Tc), 0 while it is not (T = Tc + Td)
+N_MODES = 5
 
-# ---- guards (an event fires when a guard goes from < 0 to >= 0) ----------
+# ---- guards (an event fires when a guard goes from < 0 to >= 0, or from ----
+#      exactly 0 where a step starts to > 0) -------------------------------
 G_ENTER_POS = 0
 G_ENTER_NEG = 1
 G_LEAVE = 2
@@ -112,7 +115,8 @@ G_BB_A = 3
 G_BB_B = 4
 G_SHIFT = 5
 G_SAT = 6      # a continuous law reaches or leaves the amplifier's limit (V)
-N_GUARDS = 7
+G_KINK = 7     # ElastoBacklash's damping meets its spring torque (N m)
+N_GUARDS = 8
 
 # ---- sampled output columns ----------------------------------------------
 O_SETPOINT = 0     # rad

@@ -280,12 +280,26 @@ def _converge(exp, cfg, rtols, method):
 def check_convergence(cfg, exp, rtols, rtols_low, results_dir, with_dopri=True):
     target = cfg["expected"]["convergence_ratio"]
     method = exp.solver.method
-    iae, d, ratios = _converge(exp, cfg, rtols, method)
-    out = [check(f"convergence of profile-3 bang-bang IAE, {method}, >= 5x per decade of rtol",
-                 bool(np.all(ratios >= target)), [round(float(r), 3) for r in ratios], target,
-                 "shrink ratio per decade",
-                 f"rtols {rtols}; IAE {[round(v, 10) for v in iae]} deg s; a 4th-order method whose "
-                 f"error estimate controls h^4: global error ~ rtol, nominally 10x per decade")]
+    # Judged as the test suite judges it (tests/test_physics.py): against a
+    # reference two decades tighter, by the mean rate and an envelope, because a
+    # single decade of a non-smooth run is erratic (errors of either sign cancel,
+    # and the last difference nears the floor of event location and round-off).
+    ref_rtol = rtols[-1] * 1e-2
+    (*iae, ref), d, _ = _converge(exp, cfg, list(rtols) + [ref_rtol], method)
+    d = d[:-1]
+    err = np.abs(np.array(iae) - ref)
+    mean_rate = float((err[0] / err[-1]) ** (1.0 / (len(err) - 1)))
+    envelope = 10.0 * err[0] * np.array(rtols) / rtols[0]
+    detail = (f"rtols {list(rtols)} against {ref_rtol:g}; IAE {[round(v, 10) for v in iae]} (reference "
+              f"{ref:.10f}) deg s; errors {['%.2g' % e for e in err]}, per decade "
+              f"{[round(float(r), 2) for r in err[:-1] / err[1:]]}")
+    out = [check(f"convergence of profile-3 bang-bang IAE, {method}, mean >= 5x per decade of rtol",
+                 mean_rate >= target, round(mean_rate, 3), target, "mean shrink ratio per decade",
+                 f"{detail}; a 4th-order method whose error estimate controls h^4: global error ~ rtol, "
+                 f"nominally 10x per decade"),
+           check(f"convergence of profile-3 bang-bang IAE, {method}, inside the envelope 10 err(rtol0) rtol/rtol0",
+                 bool(np.all(err <= envelope)), round(float(np.max(err / envelope)), 4), 1.0,
+                 "largest error / envelope", detail)]
     iae2, d2, ratios2 = _converge(exp, cfg, rtols_low, "rosenbrock23")
     order = 10 ** (2 / 3)
     out.append(check("same with ode23s, against its order bound 10^(2/3) (x0.85), after the first decade",
@@ -390,8 +404,8 @@ WHY_IT_FAILS = [
      "**Convergence with dopri5**: the IAE differences reach the event-location and round-off "
      "floor within a few decades, after which their ratios are noise."),
     ("rodas4 vs dopri5 at the experiment's rtol",
-     "**Stiff vs explicit at rtol 1e-6**: with the thesis shift, a chattering cell turns on motor-speed "
-     "reversals smaller than what either method resolves at this tolerance; the explicit method's "
+     "**Stiff vs explicit at the experiment's rtol**: with the thesis shift, a chattering cell turns on "
+     "motor-speed reversals smaller than what either method resolves at this tolerance; the explicit method's "
      "noise near zero speed flips the shift where the stiff one does not. At the tight rtol of the "
      "row above both resolve them and agree."),
     ("rosenbrock23 (ode23s) vs dopri5",

@@ -1,21 +1,26 @@
-"""The solver's own parts: the linear algebra of a Rosenbrock stage, and the
-amplifier's limit located as an event.
+"""The solver's own parts: the linear algebra of a Rosenbrock stage, the
+Jacobian on the amplifier's limit, and events located on time (the amplifier's
+limit, the bang-bang switch).
 
 Units are SI (s, rad, V).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from conftest import Controller, SolverOptions
 from gearbench import layout as L
 from gearbench.experiment.files import load_experiment
+from gearbench.plant.pack import tolerance_scales
+from gearbench.plant.rhs import feedback_states, rhs
 from gearbench.profiles import load_profile
-from gearbench.simulate import simulate
-from gearbench.solver.steppers import _factor, _solve
+from gearbench.simulate import Segments, pack, simulate
+from gearbench.solver.steppers import _factor, _solve, jacobian
 
 N = L.N_STATE
 
@@ -64,3 +69,61 @@ def test_saturated_time_is_the_time_at_the_limit(thesis, ctrl):
     assert run.saturated_fraction > 0.01
     # each crossing can put one sample on the wrong side
     assert abs(run.saturated_fraction - at_limit.mean()) <= (crossings + 1) * dt / 10.0
+
+
+@settings(max_examples=25, deadline=None)
+@example(log_rtol=math.log10(3e-7), slope_deg_s=22.0, band_deg=0.25)  # profile 3's start: once missed
+@given(log_rtol=st.floats(-9.0, -4.0), slope_deg_s=st.floats(1.0, 100.0), band_deg=st.floats(0.05, 2.0))
+def test_bang_bang_switches_on_time(thesis, log_rtol, slope_deg_s, band_deg):
+    """From rest under a ramp ``r = s t`` the motor does not move until the error
+    leaves the band, so the first switch is at exactly ``t* = (band/2) / s``, at
+    every tolerance.  (A step re-taken onto the root can end a round-off short of
+    it, the guard then reading exactly 0 where the next step starts: the switch
+    was seen a whole step late, 22 ms at rtol 3e-7 on profile 3.)"""
+    t_star = band_deg / 2.0 / slope_deg_s
+    dt = t_star * 1e-4
+    seg = Segments(np.array([0.0]), np.array([0.0]), np.array([math.radians(slope_deg_s)]))
+    run = simulate(thesis.plant, Controller("bang_bang", band_deg=band_deg), seg, 1.5 * t_star,
+                   SolverOptions(rtol=10.0 ** log_rtol, output_dt_s=dt, max_step_s=1.0))
+    assert run.ok
+    on = np.flatnonzero(run.column(L.O_VOLTAGE) != 0.0)
+    assert on.size, "never switched"
+    t_first = run.time_s[on[0]]
+    assert t_star - 1e-9 <= t_first <= t_star + dt * (1.0 + 1e-6), (t_first, t_star)
+
+
+def test_jacobian_at_the_limit_is_that_of_the_side_it_heads_to(thesis):
+    """After a located saturation event the state sits on the amplifier's limit
+    within round-off, possibly just past it (here the command is Vmax + 8e-11 V)
+    while the step heads inside.  The Jacobian taken there must be the inside
+    piece's, which is constant (the plant is piecewise linear): equal to one
+    taken well inside, to round-off.  (With the difference based on the clipped
+    point, d(di/dt)/d(theta_m) was 1.4e-5 off, and the reused Jacobian held a
+    3 s ramp to 0.5 ms steps.)"""
+    plant = thesis.plant
+    p = pack(plant, Controller("p", kp=50.0))
+    kp = p[L.P_KP]
+    n_ratio = p[L.P_N]
+    vmax = p[L.P_VMAX]
+    scale = tolerance_scales(plant)
+    order, na = feedback_states(p)
+    modes = np.zeros(L.N_MODES, dtype=np.int64)
+    slope = 0.26  # rad/s, the set point's ramp
+
+    def jac_at(u):
+        x = np.zeros(N)
+        x[L.X_THM] = 13.0
+        x[L.X_WM] = 26.0
+        ref = x[L.X_THM] / n_ratio + u / kp
+        f0 = np.empty(N)
+        rhs(x, p, modes, ref, f0)
+        lin = (np.empty((na, N)), np.empty((na, 2 * na)), order, np.empty(N))
+        jacobian(0.0, x, f0, p, modes, ref, slope, scale, 0, lin, np.empty(N), np.empty(N), np.empty(N))
+        return lin[0][:, :L.N_DYN].copy(), lin[3][:L.N_DYN].copy()
+
+    j_edge, t_edge = jac_at(vmax + 8e-11)
+    j_in, t_in = jac_at(0.5 * vmax)
+    np.testing.assert_allclose(j_edge, j_in, rtol=1e-8, atol=1e-8 * np.abs(j_in).max())
+    np.testing.assert_allclose(t_edge, t_in, rtol=1e-8, atol=1e-8 * np.abs(t_in).max())
+    # and the feedback is there: the inside piece, not the saturated one
+    assert j_edge[list(order[:na]).index(L.X_THM), L.X_I] == pytest.approx(-kp / n_ratio / p[L.P_L], rel=1e-8)

@@ -23,7 +23,11 @@ Penetration ``p = delta - h`` (delta > h), ``delta + h`` (delta < -h), else 0.
 The solver keeps a contact mode (-1, 0, +1).  ``engaged_torque`` is the torque
 while engaged on flank ``mode``; ``unclipped`` is ``Tc + Td``, whose sign
 decides when the teeth separate (SOLVER-NOTES: leave contact on the sign of the
-torque, not on the penetration).
+torque, not on the penetration).  ElastoBacklash's ``min(Tc, Td)`` is a kink
+inside the contact: the solver keeps which piece is active as a mode too
+(``limited``: ``2 Tc`` where the damping is limited, else ``Tc + Td``) and
+locates the switch as an event (``kink_guard``), so the right-hand side it
+integrates is linear inside every mode.
 """
 import numba as nb
 
@@ -47,15 +51,30 @@ def unclipped(delta, ddelta, h, k, d, mode):
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def engaged_torque(delta, ddelta, h, k, d, law, mode):
-    """Contact torque on the load while engaged on flank ``mode`` (+1 or -1), N m."""
+def damping_limited(delta, ddelta, h, k, d, mode):
+    """ElastoBacklash on flank ``mode``: True where the damper torque ``Td`` is
+    at or past the spring torque ``Tc`` (``mode (Td - Tc) >= 0``), so that
+    ``min(Tc, Td)`` (``max`` on the negative flank) is ``Tc``."""
+    return mode * (d * ddelta - k * (delta - mode * h)) >= 0.0
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def kink_guard(delta, ddelta, h, k, d, mode, limited):
+    """Guard that turns >= 0 where ElastoBacklash's damping torque crosses its
+    spring torque on flank ``mode``, leaving the piece ``limited`` says, N m."""
+    g = mode * (d * ddelta - k * (delta - mode * h))
+    return -g if limited else g
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def engaged_torque(delta, ddelta, h, k, d, law, mode, limited):
+    """Contact torque on the load while engaged on flank ``mode`` (+1 or -1), N m:
+    ``Tc + Td``, and for ElastoBacklash ``Tc + min(Tc, Td)`` (``max`` on the
+    negative flank), that is ``2 Tc`` when ``limited`` (``damping_limited``)."""
     tc = k * (delta - mode * h)
-    td = d * ddelta
-    if law == LAW_ELASTO:
-        if mode > 0:
-            return tc + min(tc, td)
-        return tc + max(tc, td)
-    return tc + td
+    if law == LAW_ELASTO and limited:
+        return 2.0 * tc
+    return tc + d * ddelta
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -74,10 +93,12 @@ def clipped_torque(delta, ddelta, h, k, d, law):
         return 0.0
     if p > 0.0:
         t = unclipped(delta, ddelta, h, k, d, 1)
-        return engaged_torque(delta, ddelta, h, k, d, law, 1) if t > 0.0 else 0.0
+        lim = damping_limited(delta, ddelta, h, k, d, 1)
+        return engaged_torque(delta, ddelta, h, k, d, law, 1, lim) if t > 0.0 else 0.0
     if p < 0.0:
         t = unclipped(delta, ddelta, h, k, d, -1)
-        return engaged_torque(delta, ddelta, h, k, d, law, -1) if t < 0.0 else 0.0
+        lim = damping_limited(delta, ddelta, h, k, d, -1)
+        return engaged_torque(delta, ddelta, h, k, d, law, -1, lim) if t < 0.0 else 0.0
     return 0.0
 
 

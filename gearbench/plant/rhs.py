@@ -26,11 +26,11 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import command, control_error, saturate
-from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, P_BL, P_BM, P_CTRL,
+from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, M_DAMP, P_BL, P_BM, P_CTRL,
                       P_DMESH, P_DRIVE_GAIN, P_DS, P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE,
                       P_KMESH, P_KS, P_KT, P_L, P_LAW, P_N, P_R, P_RIGID, P_TF, P_TORQUE_IN,
                       P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
-                      X_ZD, X_ZI, N_DYN, N_STATE, LAW_ELASTO, P_COUL_M, P_COUL_M_NEG,
+                      X_ZD, X_ZI, N_DYN, N_STATE, P_COUL_M, P_COUL_M_NEG,
                       P_COUL_L, P_COUL_L_NEG, P_STR_TS_M, P_STR_TC_M, P_STR_TS_L, P_STR_TC_L,
                       P_DEADZONE, P_VISC_M, P_VISC_M_NEG, P_VISC_L, P_VISC_L_NEG)
 from .contact import engaged_torque
@@ -62,7 +62,7 @@ def mesh_torque(x, p, modes):
     if m == 0 or p[P_RIGID] > 0.0:
         return 0.0
     return engaged_torque(x[X_DELTA], mesh_rate(x, p), p[P_H], p[P_KMESH],
-                          p[P_DMESH], p[P_LAW], m)
+                          p[P_DMESH], p[P_LAW], m, modes[M_DAMP] > 0)
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -174,13 +174,12 @@ def feedback_states(p):
 @nb.njit(cache=True, _nrt=False)
 def piecewise_linear(p):
     """True when ``rhs`` is affine in the state inside each mode and each
-    ``linear_region``: the Dubowsky or linear contact law, and no effect with a
-    curved or sign-dependent law (friction, an asymmetric viscous term, an
-    amplifier dead zone).  Its Jacobian is then constant there, and a
-    Jacobian taken once serves every step until the region changes.
+    ``linear_region`` (every contact law: ElastoBacklash's kink is a mode), and
+    no effect has a curved or sign-dependent law (friction, an asymmetric
+    viscous term, an amplifier dead zone).  Its Jacobian is then constant
+    there, and a Jacobian taken once serves every step until the region
+    changes.
     """
-    if p[P_LAW] == LAW_ELASTO:
-        return False
     for slot in (P_COUL_M, P_COUL_M_NEG, P_COUL_L, P_COUL_L_NEG, P_STR_TS_M, P_STR_TC_M,
                  P_STR_TS_L, P_STR_TC_L, P_DEADZONE):
         if p[slot] != 0.0:

@@ -4,6 +4,8 @@ The right-hand side is smooth inside a mode; it changes character when
 
 * the teeth touch (contact onset: with Dubowsky's law the damper torque
   appears at once) or separate (the contact torque reaches zero),
+* with the ElastoBacklash law, the damping torque meets the spring torque
+  (the kink of ``Tc + min(Tc, Td)``; mode ``M_DAMP``),
 * the bang-bang controller switches (``|e|`` crosses ``band/2``),
 * the set-point shift flips (the motor speed crosses zero; thesis compensator
   only: the set-point-direction compensator switches at the profile's corners,
@@ -18,7 +20,8 @@ With the unclipped ``linear`` contact law the teeth separate when the
 penetration returns to zero (guard ``-cm k p``, torque units), not on the
 torque's sign.
 
-Each is a guard that fires when it goes from < 0 to >= 0; the solver locates
+Each is a guard that fires when it goes from < 0 to >= 0 (or from exactly 0
+where a step starts, which means it was reached already); the solver locates
 the root on the step's interpolant, steps exactly to it, then calls
 ``apply_event``.  Guards are re-armed from the new mode after every restart
 (a guard of the new mode starts at or below zero), which is what stops the
@@ -28,11 +31,11 @@ import numba as nb
 
 from ..control.laws import control_error
 from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_P, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, P_RIGID,
-                      G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT, M_SAT,
-                      M_SHIFT, LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS, P_CTRL, P_DMESH, P_H,
-                      P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, P_VMAX, X_DELTA, X_WL, X_WM,
-                      X_WP)
-from ..plant.contact import entry_guard, unclipped
+                      G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_KINK, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT,
+                      M_DAMP, M_SAT, M_SHIFT, LAW_ELASTO, LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS,
+                      P_CTRL, P_DMESH, P_H, P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, P_VMAX, X_DELTA, X_WL,
+                      X_WM, X_WP)
+from ..plant.contact import damping_limited, entry_guard, kink_guard, unclipped
 from ..plant.rhs import demanded_input, linear_region, mesh_rate, rhs
 
 INACTIVE = -1.0
@@ -65,6 +68,8 @@ def guards(x, p, modes, ref, g):
         g[G_LEAVE] = -cm * k * (delta - cm * h)
     else:
         g[G_LEAVE] = -cm * unclipped(delta, dd, h, k, d, cm)
+        if p[P_LAW] == LAW_ELASTO:
+            g[G_KINK] = kink_guard(delta, dd, h, k, d, cm, modes[M_DAMP] > 0)
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         return
@@ -152,6 +157,16 @@ def classify_controller(x, p, modes, ref):
 
 
 @nb.njit(cache=True, _nrt=False)
+def classify_damping(x, p, modes):
+    """Set ElastoBacklash's damping piece (``M_DAMP``) from the state; 0 out
+    of contact and for the other laws."""
+    cm = modes[M_CONTACT]
+    limited = (cm != 0 and p[P_LAW] == LAW_ELASTO
+               and damping_limited(x[X_DELTA], mesh_rate(x, p), p[P_H], p[P_KMESH], p[P_DMESH], cm))
+    modes[M_DAMP] = 1 if limited else 0
+
+
+@nb.njit(cache=True, _nrt=False)
 def classify(x, p, modes, ref):
     """Set every mode from the state alone (at the start of a run)."""
     delta = x[X_DELTA]
@@ -165,6 +180,7 @@ def classify(x, p, modes, ref):
         modes[M_CONTACT] = 1
     elif delta < -h and (linear or unclipped(delta, dd, h, k, d, -1) < 0.0):
         modes[M_CONTACT] = -1
+    classify_damping(x, p, modes)
     if p[P_COMP] == COMP_THESIS:
         modes[M_SHIFT] = 1 if x[X_WM] >= 0.0 else -1
     else:
@@ -178,11 +194,9 @@ def apply_event(which, x, p, modes, ref, f):
 
     Returns 1 for a contact onset (an impact), 0 otherwise.
     """
-    if which == G_ENTER_POS:
-        modes[M_CONTACT] = 1
-        return 1
-    if which == G_ENTER_NEG:
-        modes[M_CONTACT] = -1
+    if which == G_ENTER_POS or which == G_ENTER_NEG:
+        modes[M_CONTACT] = 1 if which == G_ENTER_POS else -1
+        classify_damping(x, p, modes)
         return 1
     if which == G_LEAVE:
         cm = modes[M_CONTACT]
@@ -199,6 +213,10 @@ def apply_event(which, x, p, modes, ref, f):
             rate = p[P_KMESH] * dd + p[P_DMESH] * (wp_dot / n - f[X_WL])
         if cm * rate > 0.0:
             modes[M_CONTACT] = cm
+        classify_damping(x, p, modes)
+        return 0
+    if which == G_KINK:
+        modes[M_DAMP] = 1 - modes[M_DAMP]
         return 0
     if which == G_BB_A:
         if modes[M_BB] == 0:

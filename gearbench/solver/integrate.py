@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 from ..control.laws import saturate
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_REF_SLOPE, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT, M_SAT, M_SHIFT,
+from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_REF_SLOPE, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N, P_COMP, P_SHIFT, G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_KINK, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT, M_SAT, M_SHIFT,
                       METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK, N_GUARDS, N_MODES,
                       N_OUT, N_STATE, N_STATS, O_CURRENT, O_DELTA, O_LOAD,
                       O_MOTOR, O_SETPOINT, O_TORQUE, O_VOLTAGE, O_WL, O_WM,
@@ -24,8 +24,8 @@ from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, P_
                       X_ISE, X_DELTA, X_THM, X_WL, X_WM)
 from ..plant.rhs import (applied_input, feedback_states, linear_region, load_angle, mesh_rate, mesh_torque,
                          piecewise_linear, quadrature_rows, rhs)
-from .events import (apply_event, classify, classify_controller, continuous_law, direction_of_segment, guards,
-                     saturation_reach)
+from .events import (apply_event, classify, classify_controller, classify_damping, continuous_law,
+                     direction_of_segment, guards, saturation_reach)
 from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
 
 
@@ -313,7 +313,7 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                 # itself, after a saturation event, the side it is heading to)
                 region = modes[M_SAT] if sat_events else linear_region(x, p, modes, ref_t)
                 if not jac_ok or region != jac_region:
-                    nfe += jacobian(t, x, f, p, modes, ref_t, s, scale, region, lin, ws[0], ws[1])
+                    nfe += jacobian(t, x, f, p, modes, ref_t, s, scale, region, lin, ws[0], ws[1], ws[2])
                     jac_ok = True
                     jac_region = region
                 quadrature_rows(x, p, ref_t, s, order, na, jac, tdot)
@@ -338,6 +338,15 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                     if which < 0 or th < theta:
                         theta = th
                         which = j
+                elif j != skip and g0[j] == 0.0 and g1[j] > 0.0:
+                    # Already reached where the step starts: a step re-taken to
+                    # land on a root can end a round-off short of it (-4e-19),
+                    # and the set point recomputed for the next step puts the
+                    # guard at exactly 0, which "< 0 to >= 0" would never see
+                    # (profile 3, bang-bang, rtol 3e-7: the first switch went
+                    # unseen for 22 ms, 0.06 deg s of IAE).
+                    theta = 0.0
+                    which = j
                 elif j == skip and g1[j] >= 0.0:
                     # Refused where the step starts (at zero, turning back), the
                     # guard may still cross later in the step: find where it is
@@ -380,6 +389,9 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                         if which < 0 or th < theta:
                             theta = th
                             which = j
+                    elif j != skip and g0[j] == 0.0 and g2[j] > 0.0:
+                        theta = 0.0  # reached where the step starts (as above)
+                        which = j
             h_next = hh * min(5.0, max(0.2, 0.9 * _root_inv(max(err, 1e-10), order_exp)))
             if which >= 0:
                 hs = theta * hh
@@ -468,6 +480,13 @@ def _run(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, x, t_out, rtol, atol, scale, 
                     rhs(x, p, modes, ref_now, f)
                     nfe += 1
                     jac_ok = False
+            elif hh > 0.0 and g2[G_KINK] > 0.0:
+                # ElastoBacklash's damping piece, stale the same way
+                classify_damping(x, p, modes)
+                nev += 1
+                rhs(x, p, modes, ref_now, f)
+                nfe += 1
+                jac_ok = False
             # The controller's modes go stale the same way (a bang-bang switch
             # or a shift flip whose crossing a step hid): a bang-bang stuck on
             # drives the motor away at full voltage.  Their right mode follows
