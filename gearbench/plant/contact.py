@@ -55,13 +55,14 @@ def damping_limited(delta, ddelta, h, k, d, mode):
     """ElastoBacklash on flank ``mode``: True where the damper torque ``Td`` is
     at or past the spring torque ``Tc`` (``mode (Td - Tc) >= 0``), so that
     ``min(Tc, Td)`` (``max`` on the negative flank) is ``Tc``."""
-    return mode * (d * ddelta - k * (delta - mode * h)) >= 0.0
+    return kink_guard(delta, ddelta, h, k, d, mode, False) >= 0.0
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
 def kink_guard(delta, ddelta, h, k, d, mode, limited):
     """Guard that turns >= 0 where ElastoBacklash's damping torque crosses its
-    spring torque on flank ``mode``, leaving the piece ``limited`` says, N m."""
+    spring torque on flank ``mode``, leaving the piece ``limited`` says:
+    ``mode (Td - Tc)``, negated while limited, N m."""
     g = mode * (d * ddelta - k * (delta - mode * h))
     return -g if limited else g
 
