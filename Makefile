@@ -2,11 +2,12 @@
 #   make run   - create .venv, install, reproduce Table I, the gain scans, the tutorial's
 #                diagnosis and the EMPS study into results/
 #   make test  - create .venv, install with test extras, run the test suite
+#   make test-all - the same with the slow tests too (the 10,000-input fuzz)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test bench emps-library clean-cache install install-test
+.PHONY: run test test-all bench emps-library clean-cache install install-test
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +39,9 @@ run: install
 
 test: install-test
 	$(BIN)/python -m pytest -q
+
+test-all: install-test
+	$(BIN)/python -m pytest -q --runslow
 
 bench: install
 	$(BIN)/python benchmarks/bench_table1.py

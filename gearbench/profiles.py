@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from .experiment.files import is_file
 from .simulate import Segments
 
 PROFILE_DIR = Path(__file__).resolve().parent.parent / "profiles"
@@ -99,33 +100,50 @@ class Profile:
                        self.description)
 
 
-def load_profile(ref: str | Path, search_dir: Path | None = None) -> Profile:
+def load_profile(ref: str | Path, search_dir: Path | None = None, _summing: tuple = ()) -> Profile:
     """Load a profile by name (``profile1`` from ``profiles/``) or by path (YAML or CSV)."""
+    if not isinstance(ref, (str, Path)) or not str(ref).strip():
+        raise ProfileError(f"{_summing[-1] if _summing else 'profile'}: a profile is named by a "
+                           f"non-empty string (a name or a path), got {ref!r}")
     path = _resolve(ref, search_dir)
+    if path.resolve() in _summing:
+        raise ProfileError(f"{path}: the profile sums itself ({' -> '.join(map(str, _summing))} -> {path})")
     if path.suffix.lower() == ".csv":
         return _load_csv(path)
     try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ProfileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start}): "
+                           "a profile file is YAML or CSV text") from None
+    except RecursionError:  # PyYAML's parser recurses once per level
+        raise ProfileError(f"{path}: the YAML nests too deeply to read") from None
+    except (yaml.YAMLError, ValueError) as exc:  # ValueError: a scalar yaml cannot convert
         raise ProfileError(f"{path}: not valid YAML: {exc}") from None
     if not isinstance(data, dict):
         raise ProfileError(f"{path}: a profile file is a mapping with 'segments' or 'sum'")
     unknown = set(data) - {"name", "description", "duration_s", "segments", "sum"}
     if unknown:
-        raise ProfileError(f"{path}: unknown key(s) {sorted(unknown)}; allowed: name, description, "
+        raise ProfileError(f"{path}: unknown key(s) {sorted(map(repr, unknown))}; allowed: name, description, "
                            "duration_s, segments, sum")
     name = str(data.get("name", path.stem))
     if "sum" in data:
         parts = data["sum"]
         if not isinstance(parts, list) or len(parts) < 2:
             raise ProfileError(f"{path}: sum must list two or more profiles")
-        total = load_profile(parts[0], path.parent)
-        for part in parts[1:]:
-            total = total + load_profile(part, path.parent)
+        chain = _summing + (path.resolve(),)
+        loaded = []
+        for i, part in enumerate(parts):
+            try:
+                loaded.append(load_profile(part, path.parent, chain))
+            except ProfileError as exc:
+                raise ProfileError(f"{path}: sum[{i}]: {exc}") from None
+        total = loaded[0]
+        for part in loaded[1:]:
+            total = total + part
         return Profile(name, total.start_s, total.value_deg, total.slope_deg_per_s,
                        total.duration_s, str(data.get("description", "")))
     duration = data.get("duration_s", 10.0)
-    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not duration > 0:
+    if not _finite_number(duration) or not duration > 0:
         raise ProfileError(f"{path}: duration_s must be a positive number of seconds, got {duration!r}")
     segs = data.get("segments")
     if not isinstance(segs, list) or not segs:
@@ -138,10 +156,10 @@ def load_profile(ref: str | Path, search_dir: Path | None = None) -> Profile:
             raise ProfileError(f"{where} must be a mapping with keys {sorted(SEGMENT_KEYS)}")
         if set(seg) != SEGMENT_KEYS:
             raise ProfileError(f"{where} needs exactly the keys start_s (s), value_deg (deg), "
-                               f"slope_deg_per_s (deg/s); got {sorted(seg)}")
+                               f"slope_deg_per_s (deg/s); got {sorted(map(str, seg))}")
         for key in SEGMENT_KEYS:
             v = seg[key]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            if not _finite_number(v):
                 raise ProfileError(f"{where}.{key} must be a finite number, got {v!r}")
         start.append(float(seg["start_s"]))
         value.append(float(seg["value_deg"]))
@@ -156,6 +174,16 @@ def load_profile(ref: str | Path, search_dir: Path | None = None) -> Profile:
                    str(data.get("description", "")))
 
 
+def _finite_number(v) -> bool:
+    """A finite int or float, not a boolean (an int beyond the largest float is not)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
+
+
 def _resolve(ref: str | Path, search_dir: Path | None) -> Path:
     ref = Path(ref)
     candidates = []
@@ -168,7 +196,7 @@ def _resolve(ref: str | Path, search_dir: Path | None) -> Path:
     if ref.is_absolute():
         candidates.insert(0, ref)
     for c in candidates:
-        if c.is_file():
+        if is_file(c):
             return c
     raise ProfileError(f"profile {str(ref)!r} not found (looked in: "
                        f"{', '.join(str(c.parent) for c in candidates[::2])})")
@@ -183,11 +211,11 @@ def _load_csv(path: Path) -> Profile:
         if col not in df.columns:
             raise ProfileError(f"{path}: missing column {col!r} (a CSV profile needs time_s and "
                                f"setpoint_deg); found {list(df.columns)}")
-    t = df["time_s"].to_numpy(float)
-    v = df["setpoint_deg"].to_numpy(float)
+    t = pd.to_numeric(df["time_s"], errors="coerce").to_numpy(float)  # text becomes NaN: reported below
+    v = pd.to_numeric(df["setpoint_deg"], errors="coerce").to_numpy(float)
     bad = np.flatnonzero(~np.isfinite(t) | ~np.isfinite(v))
     if bad.size:
-        raise ProfileError(f"{path}: row {bad[0] + 2} holds a missing or non-finite value")
+        raise ProfileError(f"{path}: row {bad[0] + 2} holds a missing, non-numeric or non-finite value")
     if len(t) < 2 or t[0] != 0.0:
         raise ProfileError(f"{path}: needs at least two rows starting at time_s = 0")
     dt = np.diff(t)

@@ -1,11 +1,9 @@
 """Run an experiment's matrix of simulations and collect their scores."""
 from __future__ import annotations
 
-import multiprocessing
-import os
 import re
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -13,6 +11,7 @@ from .control.controllers import Controller
 from .experiment.files import Experiment
 from .profiles import Profile, load_profile
 from .simulate import RunResult, failure_message, simulate
+from .workers import process_pool, worker_count
 
 
 @dataclass
@@ -74,7 +73,8 @@ def run_experiment(exp: Experiment, on_done: Callable[[RunRecord], None] | None 
     sampled at the start and the end only): a table needs no more, and
     sampling a 10 s run every millisecond costs as much as solving it.
 
-    Runs are spread over ``workers`` processes (default: all cores); the
+    Runs are spread over ``workers`` processes (default: all usable cores;
+    ``gearbench.workers``, which also makes them end with this process); the
     records come back in the experiment's order whatever the finishing order.
     A run the solver cannot finish is kept with its status (its scores cover
     the part it solved) and its failure message in ``result.meta['message']``.
@@ -84,7 +84,7 @@ def run_experiment(exp: Experiment, on_done: Callable[[RunRecord], None] | None 
     solver = exp.solver if keep_traces else replace(exp.solver, output_dt_s=exp.duration_s)
     jobs = [(exp.plant, ctrl, profiles[name].segments(), exp.duration_s, solver,
              exp.initial_delta) for name, ctrl in specs]
-    workers = min(workers or os.cpu_count() or 1, len(jobs))
+    workers = worker_count(workers, len(jobs))
     records: list[RunRecord | None] = [None] * len(jobs)
 
     def finish(i: int, res: RunResult, wall: float) -> None:
@@ -100,9 +100,7 @@ def run_experiment(exp: Experiment, on_done: Callable[[RunRecord], None] | None 
         for i, job in enumerate(jobs):
             finish(i, *_solve(job))
     else:
-        # fork: the workers inherit the loaded, compiled core instead of re-importing it
-        ctx = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        with process_pool(workers) as pool:
             futures = {pool.submit(_solve, job): i for i, job in enumerate(jobs)}
             for fut in as_completed(futures):
                 finish(futures[fut], *fut.result())

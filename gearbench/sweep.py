@@ -43,11 +43,11 @@ import io
 import itertools
 import json
 import math
-import multiprocessing
 import os
 import re
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import weakref
+from concurrent.futures import as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -57,8 +57,10 @@ import numpy as np
 
 from . import layout as L
 from .control.controllers import Controller
-from .experiment.files import ConfigError, Experiment, experiment_from_dict, parse_yaml, read_yaml
+from .experiment.files import (ConfigError, Experiment, _resolve, experiment_from_dict, is_file, parse_yaml,
+                               read_yaml)
 from .simulate import failure_message, simulate
+from .workers import default_workers, process_pool, worker_count  # noqa: F401 - default_workers re-exported
 
 
 class SweepError(ValueError):
@@ -69,6 +71,8 @@ class SweepError(ValueError):
 
 _KEY = re.compile(r"[A-Za-z_]\w*(\[\d+\])?(\.[A-Za-z_]\w*(\[\d+\])?)*")
 _CALL = re.compile(r"(\w+)\((.*)\)", re.S)
+MAX_GRID = 100_000
+"""Most grid points a sweep takes (each is at least one simulation; 100,000 is days of work)."""
 SPACES = {
     "linspace": "n values evenly spaced from a to b",
     "logspace": "n values 10**a ... 10**b, evenly spaced in log10 (numpy's convention)",
@@ -121,8 +125,9 @@ def _space(name: str, args: str, where: str) -> list[float]:
         a, b, n = (float(x) for x in items)
     except ValueError:
         raise SweepError(f"{where}: {name} arguments must be numbers, got {args!r}: {usage}") from None
-    if not (math.isfinite(a) and math.isfinite(b)) or not n.is_integer() or n < 1:
-        raise SweepError(f"{where}: {name} needs finite a, b and a whole number n >= 1, got {args!r}")
+    if not (math.isfinite(a) and math.isfinite(b)) or not n.is_integer() or not 1 <= n <= MAX_GRID:
+        raise SweepError(f"{where}: {name} needs finite a, b and a whole number n from 1 to "
+                         f"{MAX_GRID:,}, got {args!r}")
     if name == "geomspace" and (a <= 0 or b <= 0):
         raise SweepError(f"{where}: geomspace needs a, b > 0, got {args!r}")
     values = getattr(np, name)(a, b, int(n))
@@ -250,9 +255,8 @@ def inline_plant(raw: dict, base_dir: Path) -> dict:
     ``plant.*`` keys can be swept and the plant's content enters the point keys)."""
     ref = raw.get("plant") if isinstance(raw, dict) else None
     if isinstance(ref, str) and ref.strip():
-        path = Path(ref).expanduser()
-        path = path if path.is_absolute() else base_dir / path
-        if path.is_file():
+        path = _resolve(base_dir, ref)
+        if is_file(path):
             plant = read_yaml(path, ref)
             if isinstance(plant, dict):
                 plant.setdefault("name", path.stem)
@@ -346,6 +350,10 @@ def plan_sweep(experiment: str | Path, params: Sequence[Param]) -> SweepPlan:
     raw = read_yaml(path)
     experiment_from_dict(raw, base_dir=base_dir, name=path.stem, label=path.name)  # the file itself
     raw = inline_plant(raw, base_dir)
+    size = math.prod(len(p.values) for p in params)
+    if size > MAX_GRID:  # refused before the grid is built: it would not fit in memory
+        raise SweepError(f"the grid has {size:,} points ({' x '.join(str(len(p.values)) for p in params)}); "
+                         f"a sweep takes at most {MAX_GRID:,}")
     grid = list(itertools.product(*[p.values for p in params]))
     problems: list[tuple[str, str]] = []
     built: list[tuple[dict, Experiment]] = []
@@ -480,7 +488,12 @@ class SweepStore:
     * On opening, a last line without its newline (a write cut short by a crash
       or a full disk) is cut off, and lines with the wrong number of fields are
       ignored: neither is a finished point, and the point is solved again.
-    * An exclusive ``flock`` keeps two sweeps from writing one file at once.
+    * An exclusive ``flock`` keeps two sweeps from writing one file at once.  The
+      kernel drops it when the last descriptor of the open file goes, so a lock
+      whose holder died is never stale.  A forked child would hold that
+      descriptor too (and keep the lock past the sweep's death): children close
+      it at the fork (:func:`_close_stores_in_child`), and the pool's workers end
+      with their parent anyway (``gearbench.workers``).
     """
 
     def __init__(self, path: str | Path, columns: Sequence[str]):
@@ -498,12 +511,12 @@ class SweepStore:
 
         if not self.path.exists():
             write_text_atomic(self.path, self._line(self.columns))
-        self.fd = os.open(self.path, os.O_RDWR | os.O_APPEND)
+        self.fd = os.open(self.path, os.O_RDWR | os.O_APPEND | os.O_CLOEXEC)
+        _OPEN_STORES.add(self)
         try:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            os.close(self.fd)
-            self.fd = None
+            self.close()
             raise SweepError(f"{self.path} is being written by another sweep") from None
         with open(self.path, "rb") as fh:
             data = fh.read()
@@ -547,6 +560,25 @@ class SweepStore:
         if self.fd is not None:
             os.close(self.fd)  # also releases the lock
             self.fd = None
+        _OPEN_STORES.discard(self)
+
+
+_OPEN_STORES: "weakref.WeakSet[SweepStore]" = weakref.WeakSet()
+
+
+def _close_stores_in_child() -> None:
+    """In a forked child: drop the inherited store descriptors (the parent keeps its lock)."""
+    for store in list(_OPEN_STORES):
+        if store.fd is not None:
+            try:
+                os.close(store.fd)  # the child's copy only: the flock stays with the parent's
+            except OSError:
+                pass
+            store.fd = None
+    _OPEN_STORES.clear()
+
+
+os.register_at_fork(after_in_child=_close_stores_in_child)
 
 
 # ------------------------------------------------------------------ execution
@@ -564,13 +596,6 @@ class SweepOutcome:
     interrupted: bool = False
 
 
-def default_workers() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
 def _local(points: list[Point], workers: int) -> Iterable[tuple[Point, dict]]:
     if workers <= 1:
         for p in points:
@@ -583,15 +608,12 @@ def _local(points: list[Point], workers: int) -> Iterable[tuple[Point, dict]]:
         simulate(plant, ctrl, segments, 1e-3, replace(solver, output_dt_s=1e-3), delta0=delta0)
     except Exception:  # noqa: BLE001 - only a warm-up; the point itself reports its failure
         pass
-    # fork: the workers inherit the loaded, compiled core instead of re-importing it
-    ctx = multiprocessing.get_context("fork")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-    try:
+    # the workers end with this process (gearbench.workers): a sweep killed with SIGKILL
+    # leaves none behind holding the store's lock
+    with process_pool(workers) as pool:
         futures = {pool.submit(solve_point, p.job): p for p in points}
         for fut in as_completed(futures):
             yield futures[fut], fut.result()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _dask(points: list[Point], address: str, lost: list[str]) -> Iterable[tuple[Point, dict]]:
@@ -662,7 +684,7 @@ def run_sweep(plan: SweepPlan, results_dir: str | Path = "results", *, workers: 
             if scheduler:
                 stream = _dask(pending, scheduler, outcome.lost)
             else:
-                stream = _local(pending, min(workers or default_workers(), len(pending)))
+                stream = _local(pending, worker_count(workers, len(pending)))
             for point, result in stream:
                 row = make_row(point, result)
                 store.append(row)

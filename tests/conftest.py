@@ -27,6 +27,24 @@ def small_plant(contact_law: str = "dubowsky", **gear_overrides) -> Plant:
                  name="test-plant")
 
 
+def pytest_addoption(parser):
+    parser.addoption("--runslow", action="store_true", default=False,
+                     help="run the tests marked slow too (make test-all)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: long tests (the 10,000-input fuzz); skipped unless --runslow")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--runslow"):
+        return
+    skip = pytest.mark.skip(reason="slow: run with --runslow (make test-all)")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
 @pytest.fixture(scope="session")
 def plant() -> Plant:
     return small_plant()

@@ -97,8 +97,66 @@ class _Loader(yaml.SafeLoader):
 _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789."))
 
 
+MAX_DEPTH = 32
+"""Deepest nesting of lists and mappings a file may have (gearbench's files nest four levels)."""
+
+
+def _shape_problem(data: Any) -> str | None:
+    """A document nested deeper than :data:`MAX_DEPTH`, or one that contains itself
+    (a YAML alias inside its own anchor, ``&a [*a]``); None when neither.
+
+    Checked once after parsing so that nothing downstream (validators, copies, hashes)
+    recurses without end.  Iterative; a node shared through aliases is walked once and
+    its height (levels below it) remembered, so an alias cannot smuggle in depth.
+    """
+    def children(node):
+        if isinstance(node, Mapping):
+            return iter(list(node.items()))
+        if isinstance(node, list):
+            return iter(list(enumerate(node)))
+        return None
+
+    if children(data) is None:
+        return None
+    height: dict[int, int] = {}   # finished containers: levels from the node down
+    stack = [[data, "", children(data), 0]]  # node, key path, children left, tallest child
+    active = {id(data)}
+    too_deep = (f"nests more than {MAX_DEPTH} levels of lists or mappings; a gearbench file "
+                "nests a few")
+    while stack:
+        frame = stack[-1]
+        node, path, it = frame[0], frame[1], frame[2]
+        for key, child in it:
+            kids = children(child)
+            if kids is None:
+                continue
+            where = index(path, key) if isinstance(node, list) else join(path, key)
+            if id(child) in active:
+                return f"{where} contains itself (a YAML alias inside its own anchor)"
+            if id(child) in height:
+                if len(stack) + height[id(child)] > MAX_DEPTH:
+                    return f"{where[:60]}{'...' if len(where) > 60 else ''} {too_deep}"
+                frame[3] = max(frame[3], height[id(child)])
+                continue
+            if len(stack) >= MAX_DEPTH:
+                return f"{where[:60]}{'...' if len(where) > 60 else ''} {too_deep}"
+            stack.append([child, where, kids, 0])
+            active.add(id(child))
+            break
+        else:
+            stack.pop()
+            active.discard(id(node))
+            height[id(node)] = frame[3] + 1
+            if stack:
+                stack[-1][3] = max(stack[-1][3], height[id(node)])
+    return None
+
+
 def parse_yaml(text: str, label: str) -> Any:
     """Parse YAML ``text``; a syntax error becomes a :class:`ConfigError` with its line.
+
+    A document nested too deeply to parse, deeper than :data:`MAX_DEPTH`, or containing
+    itself through an alias is refused with a :class:`ConfigError` too.
 
     Parameters
     ----------
@@ -108,7 +166,12 @@ def parse_yaml(text: str, label: str) -> Any:
         File label used in messages.
     """
     try:
-        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+        data = yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except RecursionError:  # PyYAML's parser recurses once per level
+        raise ConfigError(label, "the YAML nests lists or mappings too deeply to read (hundreds of "
+                                 "levels); a gearbench file nests a few") from None
+    except (ValueError, OverflowError) as exc:  # a scalar PyYAML cannot convert (an int of 5000 digits)
+        raise ConfigError(label, f"YAML error: a value cannot be read: {exc}") from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -117,6 +180,10 @@ def parse_yaml(text: str, label: str) -> Any:
         raise ConfigError(label, f"{kind}{where}: {what}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(label, f"YAML syntax error: {exc}") from None
+    problem = _shape_problem(data)
+    if problem:
+        raise ConfigError(label, problem)
+    return data
 
 
 def read_yaml(path: str | Path, label: str | None = None) -> Any:
@@ -474,7 +541,7 @@ def _check_controller(raw: Any, where: str, problems: list[str]) -> Controller |
         problems.append(f"{where} must be a mapping like {{kind: p, kp: 50}}, got {show(raw)}")
         return None
     kind = raw.get("kind")
-    if kind not in CONTROLLERS:
+    if not isinstance(kind, str) or kind not in CONTROLLERS:  # a list or mapping is not hashable
         got = "nothing" if "kind" not in raw else show(kind)
         problems.append(f"{join(where, 'kind')} must be one of {', '.join(CONTROLLERS)} "
                         f"(a string), got {got}")
@@ -529,8 +596,19 @@ def _check_compensators(raw: Any, where: str, problems: list[str]) -> tuple[str,
 
 
 def _resolve(base_dir: Path, text: str) -> Path:
-    p = Path(text).expanduser()
+    try:
+        p = Path(text).expanduser()
+    except RuntimeError:  # ~user of no such user: left as written, reported as not found
+        p = Path(text)
     return p if p.is_absolute() else base_dir / p
+
+
+def is_file(path: Path) -> bool:
+    """``path.is_file()``, but False where the system refuses the name (too long, a NUL byte)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
 
 
 def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tuple[Experiment | None, list]:
@@ -546,11 +624,12 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
     ref = raw.get("plant")
     if isinstance(ref, str) and ref.strip():
         path = _resolve(base_dir, ref)
-        plant_path = str(path.resolve())
-        if not path.is_file():
+        plant_path = str(path)
+        if not is_file(path):
             problems.append(f"plant must name an existing plant file (path relative to this "
                             f"file), not found: {path}")
         else:
+            plant_path = str(path.resolve())
             try:
                 plant = plant_from_dict(read_yaml(path, ref), name=path.stem, label=ref)
             except ConfigError as exc:
@@ -608,7 +687,7 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
     reference = None
     if "reference" in top:
         reference = _resolve(base_dir, top["reference"])
-        if not reference.is_file():
+        if not is_file(reference):
             problems.append(f"reference must be an existing file (path relative to this file), "
                             f"not found: {reference}")
 

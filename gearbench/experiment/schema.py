@@ -45,6 +45,9 @@ def show(value: Any) -> str:
     if isinstance(value, (list, tuple)):
         return "a list"
     if isinstance(value, numbers.Real):
+        if isinstance(value, int) and abs(value) >= 10 ** 21:  # a few hundred digits help nobody
+            digits = str(abs(value))
+            return f"the integer {'-' if value < 0 else ''}{digits[:6]}... ({len(digits)} digits)"
         return repr(float(value)) if isinstance(value, float) else repr(value)
     return f"a {type(value).__name__}"
 
@@ -98,7 +101,11 @@ class Number:
         if not is_number(value):
             problems.append(bad)
             return None
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:  # an integer beyond the largest float (YAML reads 10**400 exactly)
+            problems.append(f"{bad} (too large for a floating-point number)")
+            return None
         if not math.isfinite(x):
             problems.append(f"{bad} (not a finite number)")
             return None

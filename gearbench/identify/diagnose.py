@@ -17,17 +17,14 @@ again, until nothing more pays.
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
-import multiprocessing as mp
-
 
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
 from .evidence import explain
 from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, set_values
 from .replay import Replay, ReplayError
+from ..workers import process_pool, worker_count
 
 MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
@@ -237,9 +234,9 @@ def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress)
     jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
             for c in cands]
     jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
-    if workers and workers > 1 and len(jobs) > 1:
-        ctx = mp.get_context("fork")
-        with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+    workers = worker_count(workers, len(jobs))
+    if workers > 1:
+        with process_pool(workers) as pool:
             out = []
             for t in pool.map(_run_candidate, jobs):
                 out.append(t)
@@ -299,12 +296,12 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
 
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
-    cores); only: restrict the candidates to these effect names (a model structure).
+    usable cores, ``gearbench.workers``); only: restrict the candidates to
+    these effect names (a model structure).
     """
     unknown = [n for n in only if n not in REGISTRY]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(REGISTRY)}")
-    workers = workers if workers is not None else (os.cpu_count() or 1)
     scorer = Scorer(replay)
     frees = [Free.plant(plant, p) for p in free_plant]
     base = fit(replay, plant, frees, scorer) if frees else evaluate(replay, scorer, plant)

@@ -319,8 +319,13 @@ def read_measurement(path: str | Path) -> Measurement:
         raise MeasurementError(f"measurement file '{path}' does not exist")
     if path.is_dir():
         raise MeasurementError(f"measurement file '{path}' is a directory, not a CSV file")
-    names = _read_header(path)
-    body = _read_body(path, len(names))
+    try:
+        names = _read_header(path)
+        body = _read_body(path, len(names))
+    except UnicodeDecodeError as exc:  # a binary file, or text in another encoding
+        raise MeasurementError(
+            f"measurement file '{path}' is not UTF-8 text: byte {exc.object[exc.start]:#04x} at offset "
+            f"{exc.start} cannot be read (a binary file, or another encoding: save it as UTF-8 CSV)") from None
     # Blank lines carry no sample; drop them but keep every sample's own file line.
     lines = np.arange(len(body)) + 2
     filled = ~body.isna().all(axis=1).to_numpy()
