@@ -51,9 +51,7 @@ class RunRecord:
 def load_profiles(exp: Experiment) -> dict[str, Profile]:
     """Every profile the experiment names, loaded before any solving (and
     scaled by the experiment's ``profile_scale``)."""
-    search = exp.base_dir.parent / "profiles"
-    profiles = {name: load_profile(name, search if search.is_dir() else exp.base_dir)
-                for name in exp.profiles}
+    profiles = {name: load_profile(name, exp.base_dir) for name in exp.profiles}
     if exp.profile_scale != 1.0:
         profiles = {name: prof.scaled(exp.profile_scale) for name, prof in profiles.items()}
     return profiles

@@ -23,7 +23,7 @@ from gearbench.identify.diagnose import diagnose
 from gearbench.identify.replay import Replay
 from gearbench.identify.synth import excitation, synthesize
 from gearbench.plant.effects import REGISTRY, AddedEffect
-from gearbench.studies.hidden_effects import HIDDEN, PLANTS, record
+from studies.hidden_effects import HIDDEN, PLANTS, record
 
 
 def test_every_effect_has_a_case():

@@ -1,6 +1,6 @@
 """Set-point profiles: piecewise-linear segments, stored as data, composable by sum.
 
-A profile file (YAML, under ``profiles/``) is either a list of segments::
+A profile file (YAML) is either a list of segments::
 
     name: profile1
     duration_s: 10.0
@@ -24,9 +24,10 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from .simulate import Segments
+from ..simulate import Segments
 
-PROFILE_DIR = Path(__file__).resolve().parent.parent / "profiles"
+PROFILE_DIR = Path(__file__).resolve().parent
+"""The thesis's three profiles (``profile1`` ... ``profile3``), shipped with the package."""
 SEGMENT_KEYS = {"start_s", "value_deg", "slope_deg_per_s"}
 
 
@@ -100,7 +101,8 @@ class Profile:
 
 
 def load_profile(ref: str | Path, search_dir: Path | None = None) -> Profile:
-    """Load a profile by name (``profile1`` from ``profiles/``) or by path (YAML or CSV)."""
+    """Load a profile by path (YAML or CSV), or by name: a file in ``search_dir``, a built-in
+    (``profile1`` ... ``profile3``, the thesis's) or a file in the working directory."""
     path = _resolve(ref, search_dir)
     if path.suffix.lower() == ".csv":
         return _load_csv(path)
