@@ -156,8 +156,10 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first), "
-                   "verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
+              help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first "
+                   "by BIC: the Bayesian information criterion n ln(RSS/n) + k ln n of the noise-weighted residuals "
+                   "of every compared signal, lowest first, failed fits last with error and bic null, a status "
+                   "and a message), verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
                    "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
                    "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
                    "(e.g. the drive force) in closed loop.")

@@ -29,6 +29,8 @@ from .evidence import explain
 from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, set_values
 from .replay import Replay, ReplayError
 
+RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
+           "lowest first; candidates whose fit failed last")
 MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
 AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is explained
@@ -201,16 +203,22 @@ class Diagnosis:
     free_plant: tuple = ()
 
     def to_json(self) -> dict:
-        """The SPEC's ``diagnose --json`` object (plus units and explanations)."""
+        """The SPEC's ``diagnose --json`` object (plus units and explanations).
+
+        ``candidates`` are the first rung's, best first by :data:`RANKING`; each carries
+        ``effect``, ``options`` ({} when it has none), ``params``, ``error`` and ``bic``,
+        ``stderr``, the number ``k`` of fitted parameters, a ``status`` (``ok``, or
+        ``failed`` with ``error`` and ``bic`` null) and a ``message`` saying why it failed."""
         def cand(t: Tried) -> dict:
-            d = {"effect": t.candidate.name, **({"options": t.candidate.options} if t.candidate.options else {}),
-                 "params": t.params, "error": t.result.error if t.ok else None}
-            if t.ok:
-                d.update(stderr=t.stderr, bic=t.result.bic, k=t.result.k)
-            if t.note:
-                d["note"] = t.note
+            d = {"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
+                 "error": t.result.error if t.ok else None, "bic": t.result.bic if t.ok else None,
+                 "stderr": t.stderr if t.ok else {}, "k": t.result.k if t.ok else None,
+                 "status": "ok" if t.ok else "failed"}
+            if t.note or not t.ok:
+                d["message"] = t.note or "the fit did not converge"
             return d
         return {
+            "ranking": RANKING,
             "baseline_error": self.baseline_error,
             "noise_floor": self.noise_floor,
             "error_signal": self.signal,
