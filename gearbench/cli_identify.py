@@ -7,15 +7,10 @@ import sys
 from pathlib import Path
 
 import click
-from rich.console import Console
 from rich.table import Table
 
-console = Console(stderr=True)
+from .cli_common import EXIT_FAILED, _fail, console, echo_json, stdout
 
-
-def stdout() -> Console:
-    """Tables on stdout; wide enough when piped (rich would fold them to 80 columns)."""
-    return Console(width=None if sys.stdout.isatty() else 120)
 
 _common = [
     click.argument("plant_file", metavar="PLANT.yaml", type=click.Path(exists=True, dir_okay=False, path_type=Path)),
@@ -37,9 +32,6 @@ def common(f):
     return f
 
 
-def _fail(exc: Exception) -> None:
-    from .cli import _fail as fail
-    fail(exc)
 
 
 def _setup(plant_file, data_file, controller_file, window_s, rtol):
@@ -126,7 +118,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
     write_text_atomic(out / "compare.md", "\n".join(md) + "\n")
     write_text_atomic(out / "compare.json", json.dumps(summary, indent=1) + "\n")
     if as_json:
-        click.echo(json.dumps(summary, indent=1))
+        echo_json(summary)
         return
     tab = Table(title=f"{plant.name} against {data_file.name} ({'closed' if replay.closed_loop else 'open'} loop)")
     for col in ("signal", "unit", "RMS error", "max error", "noise floor", "RMS/noise", "relative %"):
@@ -207,7 +199,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
     write_text_atomic(out / "diagnose.md", "\n".join(md) + "\n")
     if as_json:
-        click.echo(json.dumps(j, indent=1))
+        echo_json(j)
         return
     tab = Table(title=f"candidates for {plant.name} against {data_file.name} (best first)")
     for col in ("effect", "parameters", f"error ({d.unit})", "BIC"):
@@ -253,7 +245,11 @@ def _defaults(plant, name, cand):
               help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The new plant file (written only if the fit converges).")
-def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, max_evals, output):
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {converged, effect, values, stderr, error_before, error_after, error_signal, "
+                   "output, tried} as one JSON object on stdout instead of the table.")
+def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, max_evals, output,
+        as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors as
@@ -290,16 +286,27 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
     except _errors() as exc:
         _fail(exc)
     ok = [t for t in tried if t.ok]
+    attempts = [{"effect": t.candidate.label(), "converged": t.ok, "note": t.note} for t in tried]
     if not ok:
         notes = "; ".join(f"{t.candidate.label()}: {t.note}" for t in tried)
-        click.echo(f"the fit did not converge: {notes}. The plant is unchanged; nothing written.", err=True)
-        sys.exit(1)
+        if as_json:
+            echo_json({"converged": False, "effect": name, "output": None, "tried": attempts})
+        console.print(f"[bold red]error:[/] the fit did not converge: {notes}. The plant is unchanged; "
+                      "nothing written.", highlight=False)
+        sys.exit(EXIT_FAILED)
     best = min(ok, key=lambda t: t.result.bic)
     res = best.result
     base_err = Scorer(replay).error(replay.run(plant))
     header = (f"{plant.name} + {best.candidate.label()}, fitted by gearbench fit to {data_file.name}\n"
               f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}")
     write_text_atomic(output, plant_to_yaml(res.plant, res.stderr, header))
+    if as_json:
+        echo_json({"converged": True, "effect": best.candidate.label(), "values": res.values,
+                   "stderr": res.stderr, "error_signal": scorer.primary, "error_before": base_err,
+                   "error_after": res.error, "output": str(output), "tried": attempts})
+        console.print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}",
+                      highlight=False)
+        return
     tab = Table(title=f"{best.candidate.label()} fitted to {data_file.name}")
     for col in ("parameter", "value", "standard error"):
         tab.add_column(col)

@@ -11,15 +11,13 @@ from pathlib import Path
 
 import click
 
+from .cli_common import _fail, echo_json
+
 # 12 significant digits keep every value of the record: qm's 5e-8 m steps are 5e-5 mm, and the
 # largest position (~246.4 mm) needs 8 digits; the EMPS CSV copies themselves hold 10.
 FLOAT_FORMAT = "%.12g"
 
 
-def _fail(exc: Exception) -> None:
-    from .cli import _fail as fail  # late: cli.py imports this module at its end
-
-    fail(exc)
 
 
 @click.group(name="import")
@@ -31,7 +29,10 @@ def import_group() -> None:
 @click.argument("data", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Measurement CSV to write (atomically).")
-def emps(data: Path, output: Path) -> None:
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {output, rows, duration_s, sample_rate_hz, columns, position_offset_m, data} "
+                   "as one JSON object on stdout.")
+def emps(data: Path, output: Path, as_json: bool) -> None:
     """Import an EMPS record (DATA_EMPS*.mat or its CSV copy) as a measurement CSV.
 
     Columns: time_s [s] (sample index x 1 ms), drive_force_N [N] = gtau*vir (the input),
@@ -47,6 +48,11 @@ def emps(data: Path, output: Path) -> None:
     except (OSError, ValueError) as exc:
         _fail(exc)
     t = frame["time_s"].to_numpy()
+    if as_json:
+        echo_json({"output": str(output), "rows": len(frame), "duration_s": float(t[-1] - t[0]),
+                   "sample_rate_hz": 1.0 / frame.attrs["Ts_s"], "columns": list(frame.columns),
+                   "position_offset_m": frame.attrs["position_offset_m"], "data": EMPS_CITATION})
+        return
     click.echo(f"wrote {output}: {len(frame)} rows, {t[-1] - t[0]:.6g} s at "
                f"{1.0 / frame.attrs['Ts_s']:.6g} Hz, columns {', '.join(frame.columns)} "
                f"(positions shifted by -{frame.attrs['position_offset_m']:.6g} m so the record "

@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import layout as L
+from .interrupts import is_interrupt
 from .control.controllers import Controller, pack_controller
 from .plant.components import Plant
 from .plant.pack import pack_plant, rest_state, tolerance_scales
@@ -152,8 +153,11 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
     """
     run = simulate_packed(pack(plant, controller), tolerance_scales(plant), inputs, t_end,
                           rest_state(plant, delta0), options, label)
-    if raise_on_failure and not run.ok:
-        raise SolverError(failure_message(run, plant.name))
+    if not run.ok:
+        # kept with the run (it may come back from a worker) so its message can name a stiff mesh
+        run.meta["mesh"] = mesh_figures(plant)
+        if raise_on_failure:
+            raise SolverError(failure_message(run, plant.name, plant))
     return run
 
 
@@ -178,25 +182,103 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     else:
         t_out = np.ascontiguousarray(output_times, dtype=float)
     d = np.zeros(len(inputs.t)) if inputs.d is None else inputs.d
-    outputs, stats, x_end, seg_u = integrate(
-        p, np.ascontiguousarray(inputs.t, dtype=float),
-        np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
-        np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
-        options.rtol * scales, float(options.max_step_s),
-        METHODS[options.method], int(options.max_steps))
+    try:
+        outputs, stats, x_end, seg_u = integrate(
+            p, np.ascontiguousarray(inputs.t, dtype=float),
+            np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
+            np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out,
+            float(options.rtol), options.rtol * scales, float(options.max_step_s),
+            METHODS[options.method], int(options.max_steps))
+    except SystemError as exc:
+        # a Ctrl-C inside the compiled core surfaces as a SystemError; give callers the interrupt
+        # itself, so that no `except Exception` records it as a failed run
+        if is_interrupt(exc):
+            raise KeyboardInterrupt from exc
+        raise
     return RunResult(t_out, outputs, stats, float(t_end), label,
-                     {"x_end": x_end, "segment_input": seg_u})
+                     {"x_end": x_end, "segment_input": seg_u, "method": options.method})
 
 
-def failure_message(run: RunResult, name: str) -> str:
-    """Which run failed, where in time, and the likely cause."""
+STIFF_MESH_HZ = 1e6
+"""An engaged mesh mode above this frequency is called very stiff when a run fails.
+Gear meshes ring at kHz to a few hundred kHz (the thesis's ~110 kHz); far above, the
+mesh is as good as rigid for the load's motion, yet it still sets the solver's step
+where the teeth strike and rattle."""
+
+MESH_BOUND_PERIODS = 10.0
+"""An explicit method whose mean step stayed under this many mesh periods was held
+to the mesh's period by its stability limit (a stiff method is not)."""
+
+
+def mesh_figures(plant: Plant) -> tuple[float, float | None]:
+    """``(k, f)``: the mesh stiffness (N m/rad) and the engaged mesh mode's frequency (Hz).
+
+    ``f`` is the damped oscillatory mode in which the mesh deflection takes part most
+    (:func:`gearbench.plant.linear.plant_info`); for an overdamped mesh, the undamped
+    ``sqrt(k (1/Jl + 1/(Jm N^2))) / 2 pi`` (``Jm`` with the pinion, ``Jl`` the output
+    inertia); None if neither can be computed.
+    """
+    from .plant.linear import plant_info  # late: scipy's eigen-solver, needed for failed runs only
+
+    k = float(plant.gear.mesh_stiffness)
+    try:
+        f = plant_info(plant)["mesh_frequency_hz"]
+        if f is None:
+            jm = plant.motor.inertia + (plant.shaft.pinion_inertia if plant.shaft is not None else 0.0)
+            f = math.sqrt(k * (1.0 / plant.output_inertia + 1.0 / (jm * plant.gear.ratio ** 2))) / (2 * math.pi)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        f = None
+    return k, (float(f) if f is not None and math.isfinite(f) and f > 0 else None)
+
+
+def _stiff_mesh_hint(run: RunResult, plant: Plant | None) -> str | None:
+    """The cause of a run whose step collapsed against a stiff mesh, or None if it was not that.
+
+    The mean accepted step ``h = t_fail / steps`` (s) is set against the mesh period
+    ``1 / f``: a mesh above :data:`STIFF_MESH_HZ` is named whatever the method; below it, an
+    explicit method whose ``h f`` stayed under :data:`MESH_BOUND_PERIODS` was held by the mesh.
+    """
+    k, f = mesh_figures(plant) if plant is not None else run.meta.get("mesh", (None, None))
+    if not f:
+        return None
+    t, steps = float(run.stats[L.S_T_FAIL]), max(int(run.stats[L.S_STEPS]), 1)
+    h = t / steps
+    method = run.meta.get("method", "")
+    explicit = METHODS.get(method) == L.METHOD_DOPRI
+    seen = (f"the solver's steps averaged {h:.2g} s ({h * f:.3g} mesh periods) over {steps} steps "
+            f"and {run.impacts} tooth impacts to t = {t:.6g} s")
+    if f >= STIFF_MESH_HZ:
+        fix = ("solve with the stiff method rodas4 (the default; the explicit "
+               f"{method} must step inside every mesh period), or lower gear.mesh_stiffness"
+               if explicit else "lower gear.mesh_stiffness")
+        return (f"the mesh is very stiff (k = {k:.3g} N m/rad, f = {f:.3g} Hz): {seen}; {fix} to the pair's "
+                f"real stiffness (gear meshes ring at kHz to a few 100 kHz; `gearbench info` prints f), "
+                f"or raise solver.max_steps")
+    if explicit and h * f < MESH_BOUND_PERIODS:
+        return (f"the mesh (k = {k:.3g} N m/rad, f = {f:.3g} Hz) is too stiff for the explicit method "
+                f"{method}, whose steps must stay inside the mesh period ({1 / f:.2g} s): {seen}; "
+                f"solve with rodas4 (the default) or ode23s")
+    return None
+
+
+def failure_message(run: RunResult, name: str, plant: Plant | None = None) -> str:
+    """Which run failed, where in time, and the likely cause.
+
+    ``plant`` (or, for a run from :func:`simulate`, ``run.meta["mesh"]``) lets the
+    message name a stiff mesh, with its stiffness (N m/rad) and frequency (Hz), when
+    the step size collapsed against it (:func:`_stiff_mesh_hint`).
+    """
     t = run.stats[L.S_T_FAIL]
-    hint = {
+    status = int(run.stats[L.S_STATUS])
+    hint = None
+    if status in (L.STATUS_STEP_TOO_SMALL, L.STATUS_MAX_STEPS):
+        hint = _stiff_mesh_hint(run, plant)
+    hint = hint or {
         L.STATUS_STEP_TOO_SMALL: "the plant is probably unphysical or far too stiff for the tolerance "
                                  "(check mesh_stiffness/mesh_damping against the inertias, and the gains)",
         L.STATUS_MAX_STEPS: "a chattering mode switch (bang-bang band or set-point shift) or an unstable gain; "
                             "widen the band, lower the gain, or raise max_steps",
         L.STATUS_NONFINITE: "the state blew up: an unstable gain or a non-physical parameter",
-    }.get(int(run.stats[L.S_STATUS]), "")
+    }.get(status, "")
     name = run.label or name
     return f"run {name!r} failed at t = {t:.6g} s: {run.status}; likely cause: {hint}"

@@ -24,7 +24,7 @@ from ..measure.data import Measurement
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
-from ..simulate import Segments, SolverOptions, failure_message, simulate_packed
+from ..simulate import Segments, SolverError, SolverOptions, failure_message, simulate_packed
 from . import signals as S
 
 DRIVES = {"voltage_V": "voltage", "drive_torque_Nm": "torque", "drive_force_N": "force"}
@@ -34,6 +34,10 @@ RESET_SAMPLES = 21
 
 class ReplayError(RuntimeError):
     """A replay that cannot run or failed; the message says which and why."""
+
+
+class ReplayRunError(ReplayError, SolverError):
+    """The solver could not finish the replay (the files were fine; the CLI exits 1, not 2)."""
 
 
 def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int = 2):
@@ -214,8 +218,8 @@ class Replay:
             run = simulate_packed(p, sc, segs, max(t_end, times[-1]), x, self.options,
                                   label, output_times=times)
             if not run.ok:
-                msg = failure_message(run, plant.name)
-                raise ReplayError(msg.replace(f"t = {run.stats[L.S_T_FAIL]:.6g} s",
+                msg = failure_message(run, plant.name, plant)
+                raise ReplayRunError(msg.replace(f"t = {run.stats[L.S_T_FAIL]:.6g} s",
                                               f"t = {self.t[a] + run.stats[L.S_T_FAIL] + self.t0:.6g} s"))
             outs.append(run.outputs)
             seg_u.append(run.meta["segment_input"])
