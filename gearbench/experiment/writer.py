@@ -89,7 +89,7 @@ def _comment(se: float | None, before: Any) -> str:
     """``fitted, standard error 0.012 (was 0.8)``: what ``fit`` notes beside a value."""
     text = f"{_FITTED} {se:.3g}" if se is not None and math.isfinite(se) else "fitted"
     if isinstance(before, float):
-        before = f"{before:.6g}"
+        before = repr(float(f"{before:.6g}"))  # 6 digits, written as YAML would: 2.0, 1.15, 2.35642
     return text + (f" (was {before})" if before is not None else "")
 
 

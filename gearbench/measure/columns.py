@@ -121,6 +121,13 @@ def unit_factor(text: str, column: str) -> float:
 
     ``unit_factor('rad', 'load_angle_deg') == 180/pi``; ``unit_factor('ms', 'time_s') == 1e-3``.
 
+    Parameters
+    ----------
+    text : str
+        A unit in pint's syntax (``'mA'``, ``'turn/4096'``, ``'N*m'``).
+    column : str
+        A gearbench column (:data:`gearbench.measure.data.COLUMN_UNITS`).
+
     Raises
     ------
     MeasurementError
@@ -149,6 +156,13 @@ def _unit_problem(text: Any, column: str) -> float | str:
 
 def parse_pairs(text: str | None, option: str) -> dict[str, str]:
     """``'time_s=t, voltage_V=u'`` as ``{'time_s': 't', 'voltage_V': 'u'}``.
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated ``KEY=VALUE`` items; blank items are skipped.
+    option : str
+        The option's name for messages (``'--columns'``).
 
     Raises
     ------
@@ -211,10 +225,21 @@ class ColumnMap:
               delimiter: str | None = None, decimal: str | None = None, partial: bool = False) -> "ColumnMap":
         """A checked map from ``columns`` and ``units``, each a mapping or ``'k=v,k=v'`` text.
 
-        Keys may be gearbench columns or quantities (``time`` for ``time_s``); a
-        ``setpoint`` key becomes ``setpoint_deg`` or ``setpoint_mm`` by its unit.
-        ``partial``: a map that will override another (:meth:`merged`), whose units may
-        belong to the other's columns; the merged map is checked whole.
+        Parameters
+        ----------
+        columns : mapping or str, optional
+            gearbench column -> file column.  Keys may be gearbench columns or quantities
+            (``time`` for ``time_s``); a ``setpoint`` key becomes ``setpoint_deg`` or
+            ``setpoint_mm`` by its unit.
+        units : mapping or str, optional
+            gearbench column or quantity -> unit of the file's column (pint syntax).
+        delimiter : str, optional
+            ``','``, ``';'``, tab (or ``'comma'``, ``'semicolon'``, ``'tab'``); None = sniffed.
+        decimal : str, optional
+            ``'.'`` or ``','``; None = sniffed.
+        partial : bool
+            A map that will override another (:meth:`merged`), whose units may belong to
+            the other's columns; the merged map is checked whole.
 
         Raises
         ------
@@ -257,6 +282,11 @@ class ColumnMap:
 
     def merged(self, override: "ColumnMap") -> "ColumnMap":
         """This map with ``override``'s entries replacing its own (options over a file).
+
+        Parameters
+        ----------
+        override : ColumnMap
+            Its columns, units, delimiter and decimal mark win.
 
         Raises
         ------
@@ -343,8 +373,13 @@ def _resolve(key: str, what: str, problems: list[str], unit: str | None,
             fits = [n for n in names if not isinstance(_unit_problem(unit, n), str)]
             if len(fits) == 1:
                 return fits[0]
-        problems.append(f"{what}: {key!r} is {' or '.join(names)}: name the column "
-                        f"({', '.join(f'{n} in {COLUMN_UNITS[n]}' for n in names)}) or give its unit")
+        options = ", ".join(f"{n} in {COLUMN_UNITS[n]}" for n in names)
+        if unit is not None:
+            problems.append(f"{what}: {key!r} is {' or '.join(names)} ({options}); its unit {unit!r} "
+                            "fits neither")
+        else:
+            problems.append(f"{what}: {key!r} is {' or '.join(names)}: name the column ({options}) "
+                            "or give its unit")
         return None
     close = difflib.get_close_matches(key, list(COLUMN_UNITS) + list(_BY_QUANTITY), n=1, cutoff=0.6)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
@@ -360,8 +395,13 @@ def load_column_map(path: str | Path, partial: bool = False) -> ColumnMap:
     """Read a mapping file: YAML with ``columns:`` and ``units:`` mappings, optional
     ``delimiter:`` (``,`` ``;`` ``tab``) and ``decimal:`` (``.`` or ``,``).
 
-    ``partial``: the map will be completed by another (:meth:`ColumnMap.merged`), so a
-    unit may name a column the file does not map.
+    Parameters
+    ----------
+    path : str or Path
+        The YAML file.
+    partial : bool
+        The map will be completed by another (:meth:`ColumnMap.merged`), so a unit may
+        name a column the file does not map.
 
     Raises
     ------
@@ -401,7 +441,15 @@ def load_column_map(path: str | Path, partial: bool = False) -> ColumnMap:
 
 
 def as_column_map(columns: Any = None, units: Any = None) -> ColumnMap | None:
-    """A :class:`ColumnMap` from what a caller gave (a map, a mapping, text, or nothing)."""
+    """A :class:`ColumnMap` from what a caller gave, or None when both are None.
+
+    Parameters
+    ----------
+    columns : ColumnMap, mapping, str or None
+        A ready map, or what :meth:`ColumnMap.build` takes.
+    units : mapping, str or None
+        Units; with a ready map they are added to (and override) its own.
+    """
     if isinstance(columns, ColumnMap):
         return columns.merged(ColumnMap.build(units=units, partial=True)) if units is not None else columns
     if columns is None and units is None:
@@ -429,8 +477,20 @@ class MappedColumns:
 
 def map_columns(cmap: ColumnMap, file_names: list[str], body: pd.DataFrame, source: str,
                 to_float: Callable[[pd.Series], tuple[np.ndarray, np.ndarray | None]]) -> MappedColumns:
-    """Take gearbench's columns out of a file's table (``body``'s columns numbered as
-    ``file_names``) through ``cmap``; ``to_float`` turns a column into numbers.
+    """Take gearbench's columns out of a file's table through ``cmap``.
+
+    Parameters
+    ----------
+    cmap : ColumnMap
+        The mapping (checked).
+    file_names : list of str
+        The file's header, one name per column of ``body``.
+    body : pandas.DataFrame
+        The data rows, columns numbered 0, 1, ...
+    source : str
+        The file, for messages.
+    to_float : callable
+        Turns a column into (float values with NaN where not a number, raw text or None).
 
     Raises
     ------

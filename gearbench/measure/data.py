@@ -355,8 +355,21 @@ def read_measurement(path: str | Path, columns=None, units=None) -> Measurement:
 
 
 def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement, list[str], list[str]]:
-    """:func:`read_measurement`, and what it did: lines saying which file column became
-    which gearbench column (with the unit conversion), and the file columns it ignored."""
+    """:func:`read_measurement`, and what it did.
+
+    Parameters
+    ----------
+    path, columns, units
+        As for :func:`read_measurement`.
+
+    Returns
+    -------
+    tuple of (Measurement, list of str, list of str)
+        The record; one line per mapped column saying which file column it came from and
+        the unit conversion (``load_angle_deg <- 'theta' in rad (x 57.2958)``); the file
+        columns left out (neither mapped nor named as gearbench's).  Without a mapping
+        both lists are empty.
+    """
     if not isinstance(path, (str, os.PathLike)):
         raise MeasurementError(f"path must be a measurement file's path (str or Path), got a {type(path).__name__}")
     path = Path(path)
