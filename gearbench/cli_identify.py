@@ -27,6 +27,8 @@ _common = [
 
 
 def common(f):
+    from .cli_import import column_options  # --columns/--units/--columns-file: read by _setup
+    f = column_options(expose=False)(f)
     for deco in reversed(_common):
         f = deco(f)
     return f
@@ -39,10 +41,11 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol):
     from .experiment.controller_file import load_controller
     from .experiment.files import load_plant
     from .identify.replay import Replay
+    from .cli_import import context_column_map
     from .measure.data import read_measurement
     from .simulate import SolverOptions
     plant = load_plant(plant_file)
-    data = read_measurement(data_file)
+    data = read_measurement(data_file, context_column_map())
     controller = load_controller(controller_file) if controller_file else None
     replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3))
     replay.check(plant)
@@ -258,7 +261,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
     from .cli_synth import parse_effect
     from .identify.diagnose import Candidate, candidates, try_candidate
     from .identify.fit import Scorer
-    from .experiment.writer import plant_to_yaml
+    from .experiment.writer import update_plant_yaml
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic
     try:
@@ -299,7 +302,9 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
     base_err = Scorer(replay).error(replay.run(plant))
     header = (f"{plant.name} + {best.candidate.label()}, fitted by gearbench fit to {data_file.name}\n"
               f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}")
-    write_text_atomic(output, plant_to_yaml(res.plant, res.stderr, header))
+    # the user's file edited in place of a fresh dump: comments, key order and description stay
+    write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, res.plant,
+                                                res.stderr, header))
     if as_json:
         echo_json({"converged": True, "effect": best.candidate.label(), "values": res.values,
                    "stderr": res.stderr, "error_signal": scorer.primary, "error_before": base_err,
