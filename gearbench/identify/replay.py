@@ -131,16 +131,18 @@ class Replay:
         """Move the angle states so the model's position matches the measured one at
         sample i, when the model has drifted further than the local fit can tell
         (5 standard errors): a model that has not drifted is left alone, so the
-        reset never adds the fit's own error to a right model."""
+        reset never adds the fit's own error to a right model.  True if it moved them."""
         name, th = self._motion(plant)
         if th is None:
-            return
+            return False
         meas, _, se, _ = local_fit(self.t, th, i)
         n = plant.gear.ratio
         model = x[L.X_THM] / n if name.startswith("motor") else (
             (x[L.X_THM] - x[L.X_PHI]) / n - x[L.X_DELTA])
         if abs(meas - model) > 5.0 * se:
             x[L.X_THM] += n * (meas - model)
+            return True
+        return False
 
     # ---------------------------------------------------------------- run
     def pack(self, plant: Plant) -> np.ndarray:
@@ -189,16 +191,19 @@ class Replay:
 
     def run(self, plant: Plant, label: str = "") -> dict[str, np.ndarray]:
         """Simulated columns (``compared()``) at the record's samples, in its units,
-        sensor effects applied.  Raises :class:`ReplayError` if the solver fails."""
+        sensor effects applied.  Raises :class:`ReplayError` if the solver fails.
+        Afterwards ``reinitialised_s`` lists the times (s from the record's start) at
+        which this run moved the model's angles to the record's."""
         self.check(plant)
         p = self.pack(plant)
         sc = self.scales(plant)
         x = self.initial_state(plant)
         outs = []
         seg_u = []
+        self.reinitialised_s = []
         for a, b in self.windows(plant):
-            if a > 0:
-                self._reset_angles(x, a, plant)
+            if a > 0 and self._reset_angles(x, a, plant):
+                self.reinitialised_s.append(float(self.t[a]))
             segs = self._segments(plant, a, b)
             t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
             times = self.t[a:b] - self.t[a]
