@@ -107,7 +107,11 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
         fig = variants.compensator_figure(runs, title)
         written.append(save_figure_atomic(fig, results_dir / f"{exp.name}.png"))
         plt.close(fig)
-        fig, _ = variants.compensator_trace_figure(records, exp.plant)
+        _, shown_runs = variants.trace_cell(records)
+        if not (plot or traces):  # solved for their scores only: solve the shown cell again with its trace
+            from .runner import retrace
+            shown_runs = retrace(exp, shown_runs)
+        fig, _ = variants.compensator_trace_figure(shown_runs, exp.plant)
         written.append(save_figure_atomic(fig, results_dir / f"{exp.name}_traces.png"))
         plt.close(fig)
         shown = runs[columns].to_string(index=False)

@@ -70,31 +70,43 @@ def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Pat
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; figures and tables go to RESULTS/compare_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as one JSON object on stdout.")
-def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json):
+@click.option("--lags", type=click.IntRange(min=1), default=25, show_default=True,
+              help="Residual tests: the largest lag, in samples, of the residual's autocorrelation (0..LAGS) "
+                   "and of its cross-correlation with the input (-LAGS..LAGS).")
+def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json, lags):
     """Drive the model as the record was driven and show where it fails.
 
     For each measured signal: RMS and maximum error in its unit, the noise
     floor estimated from the record, their ratio.  Where: the record cut into
     phases (standstill, steady motion, direction reversal, acceleration) with
-    the share of the error each carries.  Figures: measured vs simulated with
-    the residual under it and the phases shaded, one per signal; the residual
-    against speed, position and direction.
+    the share of the error each carries.  Residual tests (as MATLAB's resid):
+    is each residual white, and independent of the input (the set point in
+    closed loop)?  Its autocorrelation and cross-correlation with 99 % bands,
+    and a sentence naming the lags that leave them.  Figures: measured vs
+    simulated with the residual and the input under it, the phases shaded and
+    the re-initialisations marked, one per signal; the residual against speed,
+    position and direction; the residual tests.
     """
     from .identify.compare import comparison
-    from .report.compare import comparison_figure, residual_figure
+    from .report.compare import comparison_figure, residual_figure, residual_tests_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
-        c = comparison(replay, plant)
+        c = comparison(replay, plant, lags=lags)
     except _errors() as exc:
         _fail(exc)
     out = _out_dir(results, "compare", plant_file, data_file)
     t = replay.t
+    # Files, not the plant's name: a plant before and after a fit has one name.
+    what = f"{plant_file.name} against {data_file.name}"
+    inputs = [] if replay.closed_loop else [(data.input_name, data.input, data.input_unit)]
+    if data.setpoint is not None:
+        inputs.append((data.setpoint_name, data.setpoint, data.setpoint_name.rsplit("_", 1)[1]))
     figures = []
     for row in c["signals"]:
         name = row["signal"]
         fig = comparison_figure(t, replay.measured(name), c["sim"][name], c.get("labels"), name, row["unit"],
-                                title=f"{plant.name} vs {data_file.name}")
+                                title=f"{name}: {what}", inputs=inputs, reinit_s=c["reinitialised_s"])
         figures.append(save_figure_atomic(fig, out / f"{name}.png"))
     if "labels" in c:
         p = c["primary"]
@@ -104,11 +116,17 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
         k = per_rad(out_name, plant)
         fig = residual_figure(c["residuals"][p], k * c["speed"], k * c["position"], p, unit,
                               f"{pos_unit}/s at the output", f"{pos_unit} at the output")
+        fig.suptitle(what)
         figures.append(save_figure_atomic(fig, out / f"{p}_residual_vs_motion.png"))
-    summary = {"plant": plant.name, "data": str(data_file), "closed_loop": replay.closed_loop,
-               "signals": c["signals"], "primary": c["primary"], "phases": c.get("phases", {}),
+    tests = c["residual_tests"]
+    figures.append(save_figure_atomic(residual_tests_figure(tests, f"residual tests: {what}"),
+                                      out / "residual_tests.png"))
+    summary = {"plant": plant.name, "plant_file": str(plant_file), "data": str(data_file),
+               "closed_loop": replay.closed_loop, "signals": c["signals"], "primary": c["primary"],
+               "phases": c.get("phases", {}), "reinitialised_s": c["reinitialised_s"],
+               "residual_tests": {k: v.to_json() for k, v in tests.items()},
                "figures": [str(f) for f in figures]}
-    md = [f"# {plant.name} against {data_file.name}", "",
+    md = [f"# {what} (plant {plant.name})", "",
           "| signal | unit | RMS error | max error | noise floor | RMS/noise | relative % |", "|---|---|---|---|---|---|---|"]
     md += [f"| {r['signal']} | {r['unit']} | {r['rms_error']:.4g} | {r['max_error']:.4g} | {r['noise_floor']:.3g} | "
            f"{r['ratio_to_noise']:.3g} | {r['relative_error_pct']:.3g} |" for r in c["signals"]]
@@ -117,13 +135,15 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                "|---|---|---|---|"]
         md += [f"| {k} | {v['time_share']:.1%} | {v['error_share']:.1%} | {v['rms']:.4g} |"
                for k, v in c["phases"].items()]
+    md += ["", "Residual tests (lagged products within each re-initialisation window):", ""]
+    md += [f"- {v.sentence()}" for v in tests.values()]
     md += [""] + [f"![{f.name}]({f.name})" for f in figures]
     write_text_atomic(out / "compare.md", "\n".join(md) + "\n")
     write_text_atomic(out / "compare.json", json.dumps(summary, indent=1) + "\n")
     if as_json:
         echo_json(summary)
         return
-    tab = Table(title=f"{plant.name} against {data_file.name} ({'closed' if replay.closed_loop else 'open'} loop)")
+    tab = Table(title=f"{what} ({'closed' if replay.closed_loop else 'open'} loop)")
     for col in ("signal", "unit", "RMS error", "max error", "noise floor", "RMS/noise", "relative %"):
         tab.add_column(col, justify="left" if col in ("signal", "unit") else "right", no_wrap=True)
     for r in c["signals"]:
@@ -137,6 +157,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
         for k, v in c["phases"].items():
             tp.add_row(k, f"{v['time_share']:.1%}", f"{v['error_share']:.1%}", f"{v['rms']:.4g}")
         stdout().print(tp)
+    stdout().print("[bold]residual tests[/]")
+    for v in tests.values():
+        stdout().print(v.sentence(), highlight=False, soft_wrap=True)
     console.print(f"figures and tables in {out}/")
 
 

@@ -134,7 +134,7 @@ class Replay:
                 x[L.X_I] = (float(self.data.input[0]) - m.back_emf_constant * w * n) / m.resistance
         return x
 
-    def _reset_angles(self, x: np.ndarray, a: int, plant: Plant, out_prev: np.ndarray) -> None:
+    def _reset_angles(self, x: np.ndarray, a: int, plant: Plant, out_prev: np.ndarray) -> bool:
         """Move the angle states by the model's drift at sample ``a``, when it is significant.
 
         The drift is the mean of measured minus simulated position (output rad) over the
@@ -144,16 +144,18 @@ class Replay:
         smooth where the model is right, whatever the motion: a polynomial fit of the
         measurement alone is biased where the motion is not polynomial (a motor crossing
         the clearance at 33 rad/s in practice case p03: it moved a right model 0.35 deg and
-        its motor-angle error went from 0.98x to 38x the noise)."""
+        its motor-angle error went from 0.98x to 38x the noise).  True if it moved them."""
         name, th = self._motion(plant)
         m = min(RESET_SAMPLES, len(out_prev))
         if th is None or m < 3:
-            return
+            return False
         sim = S.to_output_rad(name, S.from_outputs(name, out_prev[-m:], plant), plant)
         d = th[a - m:a] - sim
         drift, se = float(d.mean()), float(d.std(ddof=1)) / np.sqrt(m)
         if abs(drift) > 5.0 * se:
             x[L.X_THM] += plant.gear.ratio * drift
+            return True
+        return False
 
     # ---------------------------------------------------------------- run
     def pack(self, plant: Plant) -> np.ndarray:
@@ -202,16 +204,19 @@ class Replay:
 
     def run(self, plant: Plant, label: str = "") -> dict[str, np.ndarray]:
         """Simulated columns (``compared()``) at the record's samples, in its units,
-        sensor effects applied.  Raises :class:`ReplayError` if the solver fails."""
+        sensor effects applied.  Raises :class:`ReplayError` if the solver fails.
+        Afterwards ``reinitialised_s`` lists the times (s from the record's start) at
+        which this run moved the model's angles to the record's."""
         self.check(plant)
         p = self.pack(plant)
         sc = self.scales(plant)
         x = self.initial_state(plant)
         outs = []
         seg_u = []
+        self.reinitialised_s = []
         for a, b in self.windows(plant):
-            if a > 0:
-                self._reset_angles(x, a, plant, outs[-1])
+            if a > 0 and self._reset_angles(x, a, plant, outs[-1]):
+                self.reinitialised_s.append(float(self.t[a]))
             segs = self._segments(plant, a, b)
             t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
             times = self.t[a:b] - self.t[a]
