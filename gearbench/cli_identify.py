@@ -210,8 +210,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         _fail(exc)
     j = d.to_json()
     out = _out_dir(results, "diagnose", plant_file, data_file)
-    steps = [{"effect": "baseline", "error": d.baseline_error}] + [{"effect": s.effect, "error": s.error}
-                                                                  for s in d.ladder]
+    steps = [{"effect": "baseline", "error": d.baseline_error}] + [
+        {"effect": s.effect, "error": s.error, "action": s.action} for s in d.ladder]
     fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}")
     save_figure_atomic(fig, out / "ladder.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
@@ -220,8 +220,9 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
           "", f"Verdict: **{d.verdict}**" if d.verdict else f"Verdict: none. {d.reason}.", "",
           "| step | effect | parameters | error |", "|---|---|---|---|",
           f"| 0 | (baseline) | | {d.baseline_error:.4g} {d.unit} |"]
-    md += [f"| {i} | {s.effect} {s.options or ''} | " + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items())
-           + f" | {s.error:.4g} {d.unit} |" for i, s in enumerate(d.ladder, 1)]
+    md += [f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
+           + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |"
+           for i, s in enumerate(d.ladder, 1)]
     md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
     write_text_atomic(out / "diagnose.md", "\n".join(md) + "\n")
     if as_json:
@@ -240,7 +241,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         lad.add_column(col)
     lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
     for i, s in enumerate(d.ladder, 1):
-        lad.add_row(str(i), s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
+        lad.add_row(str(i), ("taken out: " if s.action == "remove" else "")
+                    + s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
                     ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
     stdout().print(lad)
     stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")

@@ -360,7 +360,7 @@ def run_ladder(runs: Runs, ctrl: SampledPV, only: tuple[str, ...] = PAPER_STRUCT
              "step_params": {}, "step_stderr": {}, "bic": d.baseline.bic, "model": []}]
     for s in d.ladder:
         p = plant_from_model(s.model, s.plant_params, bare)
-        rows.append({"effect": s.effect, "options": s.options,
+        rows.append({"effect": s.effect, "action": s.action, "options": s.options,
                      "train_force_error_pct": s.relative_error_pct, "rms_force_error_N": s.error,
                      "params": paper_params(p), "step_params": s.params, "step_stderr": s.stderr,
                      "bic": s.bic, "model": s.model})
@@ -690,7 +690,8 @@ def write_figures(out_dir: Path, runs: Runs, sims: Mapping[str, Mapping], labels
         names.append(name)
 
     for key, lad in ladders.items():
-        steps = [{"effect": r["effect"], "error": r["train_force_error_pct"]} for r in lad["rows"]]
+        steps = [{"effect": r["effect"], "error": r["train_force_error_pct"], "action": r.get("action", "add")}
+                 for r in lad["rows"]]
         save(ladder_figure(steps, unit="% closed-loop force error, train",
                            title=f"EMPS ladder ({key})"), f"ladder_{key}.png")
     for run in ("train", "validation"):
@@ -852,7 +853,7 @@ def _delay_json(d: dict) -> dict:
     lad = d["ladder"]
     return {
         "delay_samples": d["delay_samples"],
-        "ladder": [{"effect": r["effect"], "train_force_error_pct": r["train_force_error_pct"],
+        "ladder": [{"effect": r["effect"], "action": r.get("action", "add"), "train_force_error_pct": r["train_force_error_pct"],
                     "rms_force_error_N": r["rms_force_error_N"], "params": r["params"],
                     "step_stderr": r["step_stderr"], "bic": r["bic"]} for r in lad["rows"]],
         "ladder_candidates_first_step": lad["candidates"],
@@ -896,7 +897,7 @@ def build_summary(runs: Runs, by_delay: dict, delays: Sequence[int], lib: dict |
     }
     if lib is not None:
         out["library_ladder"] = {
-            "ladder": [{"effect": r["effect"], "options": r["options"],
+            "ladder": [{"effect": r["effect"], "action": r.get("action", "add"), "options": r["options"],
                         "train_force_error_pct": r["train_force_error_pct"], "params": r["params"],
                         "step_params": r["step_params"], "bic": r["bic"]} for r in lib["rows"]],
             "candidates_first_step": lib["candidates"], "verdict": lib["verdict"],

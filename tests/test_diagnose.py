@@ -113,3 +113,35 @@ def test_json_candidates_carry_the_contract_keys_and_failures_say_why():
     failed = j["candidates"][-1]
     assert failed["error"] is None and failed["bic"] is None and failed["status"] == "failed"
     assert "step budget" in failed["message"] and failed["options"] == {"signal": "load_angle_deg"}
+
+
+def test_an_effect_that_no_longer_pays_is_taken_out():
+    """Stepwise backwards: a record with viscous friction only, and a ladder that took Coulomb
+    friction first and viscous friction second.  Refitted together the Coulomb torque has
+    nothing left to explain, so ``_prune`` takes it out and keeps the viscous term."""
+    from gearbench.identify.diagnose import _accepts, _prune
+    from gearbench.identify.fit import Free, Scorer, fit
+
+    plant = load_plant(PLANTS / "bench_rig.yaml")
+    data = record(plant, [AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.05})], seed=11)
+    replay = Replay(data)
+    scorer = Scorer(replay)
+    both = plant.with_effects(AddedEffect("coulomb_friction", {"location": "load", "torque": 0.3}),
+                              AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.03}))
+    res = fit(replay, both, Free.effect(both, 0) + Free.effect(both, 1), scorer)
+    assert res.converged
+    removed = _prune(replay, scorer, res, 0, ())
+    assert [(e.name, e.values["location"]) for e, _, _ in removed] == [("coulomb_friction", "load")]
+    gone, without, gain = removed[0]
+    assert not _accepts(without, res) and gain < 10.0
+    assert [e.name for e in without.plant.effects] == ["viscous_friction"]
+    assert without.plant.effects[0].values["coefficient"] == pytest.approx(0.05, rel=0.05)
+    assert without.error <= 1.5 * scorer.noise_floor
+    # effects that each pay stay: a record with both Coulomb friction and a spring
+    hidden = [AddedEffect("coulomb_friction", {"location": "load", "torque": 0.6}),
+              AddedEffect("load_spring", {"stiffness": 3.0, "rest_angle_deg": -10.0})]
+    replay2 = Replay(record(plant, hidden, seed=7))
+    scorer2 = Scorer(replay2)
+    two = plant.with_effects(*hidden)
+    res2 = fit(replay2, two, Free.effect(two, 0) + Free.effect(two, 1), scorer2)
+    assert res2.converged and _prune(replay2, scorer2, res2, 0, ()) == []

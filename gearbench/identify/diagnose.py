@@ -12,7 +12,10 @@ error by more than ``MIN_ERROR_DROP``; ``None`` when the model already sits
 at the noise floor, or when no candidate explains the residual.
 
 The ladder repeats: add the verdict with its fitted parameters, diagnose
-again, until nothing more pays.
+again, until nothing more pays.  It steps both ways: after each rung every
+effect an earlier rung added is refitted out, and one that no longer pays by
+the same criterion is taken out, as a rung of its own (``action: remove``).
+The verdict is the first effect added that is still in the model at the end.
 """
 from __future__ import annotations
 
@@ -184,6 +187,7 @@ class Step:
     model: list
     plant_params: dict
     explanation: str = ""
+    action: str = "add"     # "add", or "remove": an effect of an earlier rung that no longer pays
 
 
 @dataclass
@@ -228,7 +232,7 @@ class Diagnosis:
             "verdict": self.verdict,
             "reason": self.reason,
             "baseline_relative_error_pct": self.baseline_relative_pct,
-            "ladder": [{"effect": s.effect, **({"options": s.options} if s.options else {}),
+            "ladder": [{"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
                         "params": s.params, "stderr": s.stderr, "error": s.error,
                         "relative_error_pct": s.relative_error_pct, "model": s.model,
                         "plant_params": s.plant_params, "explanation": s.explanation}
@@ -295,6 +299,41 @@ def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant
     return res, notes
 
 
+def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> FitResult | None:
+    """The model of ``res`` without effect ``i``, the other ladder effects (numbers
+    ``first`` on) and the free plant parameters refitted from where they are."""
+    effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
+    trial = replace(res.plant, effects=effects)
+    frees = [Free.plant(trial, p) for p in free_plant]
+    for j in range(first, len(effects)):
+        frees += Free.effect(trial, j)
+    try:
+        r = fit(replay, trial, frees, scorer) if frees else evaluate(replay, scorer, trial)
+    except (ReplayError, ValueError):
+        return None
+    return r if r.converged else None
+
+
+def _prune(replay, scorer, res: FitResult, first: int, free_plant) -> list[tuple[AddedEffect, FitResult, float]]:
+    """Stepwise backwards: each effect the ladder added before its newest rung is refitted
+    out; one whose removal the model with it does not beat by the criterion that added it
+    (:func:`_accepts`) no longer pays and comes out, the one that pays least first, until
+    every effect left pays.  Returns ``(removed effect, model without it, BIC change)``."""
+    out = []
+    while len(res.plant.effects) - first >= 2:
+        options = []
+        for i in range(first, len(res.plant.effects) - 1):
+            r = _without(res, i, first, replay, scorer, free_plant)
+            if r is not None and not _accepts(r, res):
+                options.append((r.bic - res.bic, i, r))
+        if not options:
+            break
+        gain, i, r = min(options, key=lambda o: o[0])
+        out.append((res.plant.effects[i], r, gain))
+        res = r
+    return out
+
+
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
              workers: int | None = None, progress=None, only: tuple[str, ...] = ()) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
@@ -322,6 +361,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         replay.data.input_unit
     current, current_res = base.plant, base
     ladder: list[Step] = []
+    rungs: list[int] = []  # the ladder step that added each effect of the model past the plant's own
     first_tried: list[Tried] = []
     reason = ""
     for step in range(max_steps):
@@ -367,8 +407,9 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                            [e.to_dict() for e in fitted.plant.effects],
                            {p: get_value(fitted.plant, Free.plant(fitted.plant, p)) for p in free_plant},
                            text))
+        rungs.append(len(ladder) - 1)
         for i, old, new, gain in notes:
-            rung = ladder[i - len(plant.effects)]
+            rung = ladder[rungs[i - len(plant.effects)]]
             e = fitted.plant.effects[i]
             rung.effect = new
             rung.params = {k: v for k, v in e.values.items() if not isinstance(v, str)}
@@ -376,6 +417,20 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                                  f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
                                  "parameters do not pay.")
         current, current_res = fitted.plant, fitted
-    verdict = ladder[0].effect if ladder else None
+        for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), free_plant):
+            rungs.pop(current_res.plant.effects.index(gone) - len(plant.effects))
+            opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
+            ladder.append(Step(gone.name, opts, {k: v for k, v in gone.values.items() if not isinstance(v, str)},
+                               {}, without.error, scorer.relative_pct(without.sim), without.bic,
+                               [e.to_dict() for e in without.plant.effects],
+                               {p: get_value(without.plant, Free.plant(without.plant, p)) for p in free_plant},
+                               f"Taken out at step {len(ladder) + 1}: once {best.candidate.label()} is in, "
+                               f"{gone.name} no longer pays; refitted without it the error is "
+                               f"{without.error:.4g} {unit} against {current_res.error:.4g} {unit}, the BIC "
+                               f"{'rises' if gain > 0 else 'falls'} by {abs(gain):.1f} (an effect must lower it by "
+                               f"more than {MIN_BIC_DROP:g} and the weighted RMS by {MIN_ERROR_DROP:.0%} to stay).",
+                               action="remove"))
+            current, current_res = without.plant, without
+    verdict = ladder[rungs[0]].effect if rungs else None
     return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
                      reason, current, base, base.plant, scorer.relative_pct(base.sim), tuple(free_plant))

@@ -225,17 +225,23 @@ def residual_figure(residual, speed, position, name: str, unit: str, speed_unit:
 def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, unit: str = "",
                   title: str = "") -> Figure:
     """The error after each step of the ladder: ``steps[0]`` the baseline, then one
-    ``{"effect": name, "error": value}`` per effect added; a dashed line marks the
+    ``{"effect": name, "error": value}`` per effect added (``"action": "remove"``: an
+    effect taken out again, drawn hatched as ``- name``); a dashed line marks the
     noise floor (the error noise alone would leave) when given.  ``unit`` labels the
     error axis, logarithmic when the errors span more than two decades."""
     if not steps:
         raise ValueError("a ladder needs at least its baseline step")
-    names = [str(s["effect"]) if i == 0 else f"+ {s['effect']}" for i, s in enumerate(steps)]
+    removed = [i > 0 and s.get("action") == "remove" for i, s in enumerate(steps)]
+    names = [str(s["effect"]) if i == 0 else f"{'-' if removed[i] else '+'} {s['effect']}"
+             for i, s in enumerate(steps)]
     errors = np.array([float(s["error"]) for s in steps])
     fig = Figure(figsize=(max(5.0, 1.3 * len(steps) + 2), 4), layout="constrained")
     ax = fig.subplots()
     pos = np.arange(len(steps))
-    bars = ax.bar(pos, errors, color=["#9e9e9e"] + ["C0"] * (len(steps) - 1), width=0.6)
+    bars = ax.bar(pos, errors, color=["#9e9e9e"] + ["C1" if r else "C0" for r in removed[1:]], width=0.6)
+    for bar, r in zip(bars, removed):
+        if r:
+            bar.set_hatch("//")
     ax.bar_label(bars, fmt="%.3g", fontsize=8, padding=2)
     if noise_floor is not None:
         ax.axhline(noise_floor, color="C3", ls="--", lw=1, label=f"noise floor {noise_floor:.3g}")
