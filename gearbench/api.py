@@ -349,13 +349,38 @@ class Simulation:
                 **self.scores}
 
     def plot(self, title: str = ""):
-        """Set point, output and motor angle / N (deg), the error (deg) and the
-        voltage (V) against time; returns the matplotlib Figure (works headless)."""
-        from .report.traces import run_figure
+        """Set point, output and motor angle / N (deg), the error (deg), the
+        input (V, or N m / N) and the current (A) against time.
+
+        Returns a ``matplotlib.figure.Figure`` not managed by pyplot (as the
+        command line's figures): it never changes the backend or closes other
+        figures, works headless, shows in a notebook, saves with ``fig.savefig``.
+        """
+        from matplotlib.figure import Figure
         c = self.controller
         gain = f" Kp={c.kp:g} V/deg" if c.kind in ("p", "pi", "pid") else ""
-        return run_figure(self.result, self.plant, title or
-                          f"{self.plant.name}: {self.profile}, {c.kind}{gain}, {c.effective_compensator}")
+        t, sig = self.time_s, self.signals
+        fig = Figure(figsize=(9, 7), layout="constrained")
+        ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [3, 1.5, 1.5]})
+        ax1.plot(t, sig["setpoint_deg"], "k--", lw=1, label="set point")
+        ax1.plot(t, sig["motor_angle_deg"] / self.plant.gear.ratio, lw=1, label="motor angle / N")
+        ax1.plot(t, sig["load_angle_deg"], lw=1, label="output angle")
+        ax1.set_ylabel("output angle (deg)")
+        ax1.legend(loc="best", fontsize=8)
+        ax1.set_title(title or f"{self.plant.name}: {self.profile}, {c.kind}{gain}, {c.effective_compensator}")
+        ax2.plot(t, sig["error_deg"], lw=0.8, color="C3")
+        ax2.set_ylabel("output error (deg)")
+        name = next(n for n in ("voltage_V", "drive_torque_Nm", "drive_force_N") if n in sig)
+        ax3.plot(t, sig[name], lw=0.6, color="C2")
+        ax3.set_ylabel(f"{name.split('_')[0]} ({self.units[name]})")
+        if "current_A" in sig:
+            ax4 = ax3.twinx()
+            ax4.plot(t, sig["current_A"], lw=0.6, color="C4", alpha=0.7)
+            ax4.set_ylabel("current (A)", color="C4")
+        ax3.set_xlabel("time (s)")
+        for ax in (ax1, ax2, ax3):
+            ax.grid(alpha=0.3)
+        return fig
 
     def __repr__(self) -> str:
         return (f"Simulation({self.plant.name!r}, {self.profile!r}, {self.controller.kind}, "
@@ -440,8 +465,10 @@ def simulate(plant: Plant | str | Path | Mapping, controller: Controller | Mappi
     else:
         problems.append(f"setpoint must be a Profile, a profile name or file, or Segments, got {show(setpoint)}")
         name, inputs = "", None
-    if duration_s is not None:
-        Number("s").check(duration_s, "duration_s", problems)
+    if duration_s is not None and Number("s").check(duration_s, "duration_s", problems) is not None \
+            and options.output_dt_s > duration_s:  # the trace would hold t = 0 alone
+        problems.append(f"solver.output_dt_s must be at most duration_s ({duration_s:g} s), "
+                        f"got {options.output_dt_s!r}")
     half = plant.gear.backlash_deg / 2.0
     d0 = Number("deg", low=None).check(initial_delta_deg, "initial_delta_deg", problems)
     if d0 is not None and abs(d0) > half:
@@ -538,6 +565,9 @@ class Comparison:
         ``primary``, ``phases``, and the arrays ``sim``, ``residuals``.
     time_s : numpy.ndarray
         Sample times from the record's start, s.
+    plant_label : str
+        What figure titles call the model: its file's name when it came from
+        a file, else the plant's name.
 
     Examples
     --------
@@ -551,6 +581,7 @@ class Comparison:
     closed_loop: bool
     figures: dict = field(repr=False)
     time_s: np.ndarray = field(repr=False)
+    plant_label: str = ""
 
     @property
     def primary(self) -> str:
@@ -597,7 +628,8 @@ class Comparison:
             raise KeyError(f"no compared signal {name!r}; compared: {', '.join(self.simulated)}")
         unit = next(r["unit"] for r in self.signals if r["signal"] == name)
         return comparison_figure(self.time_s, self.measured(name), self.simulated[name], self.figures.get("labels"),
-                                 name, unit, title=f"{self.plant.name} vs {Path(self.data.source).name}")
+                                 name, unit, title=f"{self.plant_label or self.plant.name} vs "
+                                                   f"{Path(self.data.source).name}")
 
 
 def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
@@ -643,8 +675,9 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     True
     """
     from .identify.compare import comparison
+    label = Path(plant).name if isinstance(plant, (str, Path)) else ""
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare")
-    return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t)
+    return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
 @dataclass

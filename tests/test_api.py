@@ -177,6 +177,7 @@ def test_a_nan_voltage_is_refused_not_run_as_zero():
 @pytest.mark.parametrize("kwargs, message", [
     (dict(duration_s=-1.0), "simulate: duration_s must be a positive number in s, got -1.0"),
     (dict(duration_s=math.nan), "duration_s must be a positive number in s, got nan"),
+    (dict(duration_s=4e-4), "solver.output_dt_s must be at most duration_s (0.0004 s), got 0.001"),
     (dict(initial_delta_deg=5.0), "initial_delta_deg must lie within +-1.6 deg"),
     (dict(solver={"rtol": 2.0}), "solver.rtol must be a number > 0 and < 1"),
     (dict(solver={"rtoll": 1e-6}), "solver.rtoll is not a solver setting (did you mean 'rtol'?)"),
@@ -296,14 +297,18 @@ def test_a_force_driven_run_names_its_input():
     assert run["drive_force_N"][10] == pytest.approx(10.0) and run["load_position_mm"][-1] > 0
 
 
-def test_plot_returns_a_figure_headless():
+def test_plot_returns_a_figure_and_leaves_pyplot_alone(tmp_path):
+    import matplotlib
     from matplotlib.figure import Figure
-    import matplotlib.pyplot as plt
-    run = gb.simulate(THESIS, gb.Controller("p", kp=50), "profile1", duration_s=1.0)
+    backend = matplotlib.get_backend()
+    run = gb.simulate(THESIS, gb.Controller("p", kp=50), "profile1", duration_s=3.0)
     fig = run.plot()
-    assert isinstance(fig, Figure) and len(fig.axes) == 3
-    assert "thesis_gear" in fig.axes[0].get_title()
-    plt.close(fig)
+    assert isinstance(fig, Figure) and len(fig.axes) == 4  # angles, error, voltage (+ current on its right)
+    assert fig.axes[0].get_title() == "thesis_gear: profile1, p Kp=50 V/deg, none"
+    np.testing.assert_array_equal(fig.axes[0].lines[2].get_ydata(), run["load_angle_deg"])
+    assert matplotlib.get_backend() == backend
+    fig.savefig(tmp_path / "run.png")
+    assert (tmp_path / "run.png").stat().st_size > 10_000
 
 
 def test_compare_matches_the_cli_json(tmp_path):
@@ -320,7 +325,7 @@ def test_compare_matches_the_cli_json(tmp_path):
     assert list(df.index) == ["motor_angle_deg", "load_angle_deg", "current_A"]
     assert df.loc["current_A", "unit"] == "A"
     fig = c.plot("current_A")
-    assert fig.axes and "bench_rig vs bench_rig_hidden.csv" in fig.axes[0].get_title()
+    assert fig.axes and fig.axes[0].get_title().startswith("bench_rig.yaml vs bench_rig_hidden.csv")
     with pytest.raises(KeyError, match="no compared signal"):
         c.plot("voltage_V")
 
@@ -371,3 +376,59 @@ def test_the_example_runs(tmp_path):
     assert "IAE" in out.stdout
     for name in ("run.png", "run.csv", "compare.png"):
         assert (tmp_path / name).stat().st_size > 1000
+
+
+# ------------------------------------------------- any input: a named error
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+_ANY = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6), st.floats(allow_nan=True),
+                 st.text(max_size=5), st.lists(st.floats(), max_size=3), st.dictionaries(st.text(max_size=3),
+                                                                                          st.integers(), max_size=2))
+_KINDS = st.one_of(st.sampled_from(["open", "bang_bang", "p", "pi", "pid", "pd", ""]), _ANY)
+_SETTINGS = st.dictionaries(st.sampled_from(["kp", "ki", "kd", "derivative_filter_s", "band_deg", "shift",
+                                             "shift_deg", "compensator"]),
+                            st.one_of(st.floats(-1e3, 1e3), _ANY, st.sampled_from(["none", "thesis_shift"])),
+                            max_size=4)
+
+
+@settings(max_examples=150, deadline=None)
+@given(kind=_KINDS, kw=_SETTINGS)
+def test_controller_gives_a_controller_or_a_named_error(kind, kw):
+    try:
+        c = gb.Controller(kind, **kw)
+    except gb.ConfigError as exc:
+        assert str(exc).startswith("Controller: ")
+        return
+    assert c.problems() == [] and c.kind in ("open", "bang_bang", "p", "pi", "pid")
+
+
+_ARRAY = st.one_of(st.lists(st.floats(-10, 10), min_size=0, max_size=4),
+                   st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=4), _ANY)
+
+
+@settings(max_examples=150, deadline=None)
+@given(t=_ARRAY, v=_ARRAY, s=_ARRAY, d=st.one_of(st.none(), _ARRAY))
+def test_segments_give_segments_or_a_named_error(t, v, s, d):
+    try:
+        seg = gb.Segments(t, v, s, d)
+    except gb.ConfigError as exc:
+        assert str(exc).startswith("Segments: ")
+        return
+    assert seg.t[0] == 0.0 and np.all(np.diff(seg.t) > 0) and len(seg.v) == len(seg.s) == len(seg.t)
+    assert np.all(np.isfinite(seg.v)) and np.all(np.isfinite(seg.s))
+
+
+@settings(max_examples=60, deadline=None)
+@given(duration=st.one_of(st.floats(-1, 0.05), st.just(math.nan), _ANY), delta=st.one_of(st.floats(-5, 5), _ANY),
+       solver=st.one_of(st.none(), st.dictionaries(st.sampled_from(["rtol", "method", "max_step_s", "bogus"]),
+                                                   st.one_of(st.floats(-1, 1), _ANY), max_size=2)))
+def test_simulate_runs_or_names_the_argument(duration, delta, solver):
+    """Short runs only (at most 0.05 s): a valid call finishes, a bad one is a ConfigError."""
+    try:
+        run = gb.simulate(THESIS, gb.Controller("p", kp=50), "profile1", duration, solver=solver,
+                          initial_delta_deg=delta)
+    except gb.ConfigError as exc:
+        assert str(exc).startswith(("simulate: ", "<config>"))
+        return
+    assert run.ok and run.time_s[-1] == pytest.approx(duration)
