@@ -38,7 +38,7 @@ from .experiment.schema import Number, check_mapping, show, unknown_key
 from .measure.data import COLUMN_UNITS, Measurement, from_frame, read_measurement
 from .plant.components import Plant
 from .profiles import Profile, load_profile
-from .simulate import RunResult, Segments, SolverError, SolverOptions, failure_message
+from .simulate import MAX_SAMPLES, RunResult, Segments, SolverError, SolverOptions, failure_message
 from .simulate import simulate as _simulate
 
 __all__ = ["setpoint", "load_measurement", "simulate", "run_experiment", "compare", "diagnose", "fit",
@@ -465,10 +465,14 @@ def simulate(plant: Plant | str | Path | Mapping, controller: Controller | Mappi
     else:
         problems.append(f"setpoint must be a Profile, a profile name or file, or Segments, got {show(setpoint)}")
         name, inputs = "", None
-    if duration_s is not None and Number("s").check(duration_s, "duration_s", problems) is not None \
-            and options.output_dt_s > duration_s:  # the trace would hold t = 0 alone
-        problems.append(f"solver.output_dt_s must be at most duration_s ({duration_s:g} s), "
-                        f"got {options.output_dt_s!r}")
+    if duration_s is not None and Number("s").check(duration_s, "duration_s", problems) is not None:
+        if options.output_dt_s > duration_s:  # the trace would hold t = 0 alone
+            problems.append(f"solver.output_dt_s must be at most duration_s ({duration_s:g} s), "
+                            f"got {options.output_dt_s!r}")
+        elif duration_s / options.output_dt_s > MAX_SAMPLES:
+            problems.append(f"duration_s = {duration_s:g} s sampled every solver.output_dt_s = "
+                            f"{options.output_dt_s:g} s is {duration_s / options.output_dt_s:.3g} samples, more than "
+                            f"{MAX_SAMPLES:.0e} (x {L.N_OUT} signals x 8 bytes); raise output_dt_s or shorten the run")
     half = plant.gear.backlash_deg / 2.0
     d0 = Number("deg", low=None).check(initial_delta_deg, "initial_delta_deg", problems)
     if d0 is not None and abs(d0) > half:

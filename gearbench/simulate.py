@@ -270,6 +270,10 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
     return run
 
 
+MAX_SAMPLES = 10_000_000
+"""Most samples a returned trace may hold (720 MB of outputs); more is refused, not allocated."""
+
+
 def run_problems(plant, controller, inputs, t_end, delta0=0.0,
                  options: SolverOptions = SolverOptions()) -> list[str]:
     """What is wrong with :func:`simulate`'s arguments (empty when nothing is)."""
@@ -279,11 +283,16 @@ def run_problems(plant, controller, inputs, t_end, delta0=0.0,
                              ("inputs", inputs, Segments)):
         if not isinstance(value, cls):
             problems.append(f"{name} must be a {cls.__name__}, got {show(value)}")
-    Number("s").check(t_end, "t_end", problems)
+    t_end_ok = Number("s").check(t_end, "t_end", problems) is not None
     if isinstance(options, SolverOptions):
         from .experiment.files import SOLVER
+        before = len(problems)
         for name, spec in {**SOLVER, "friction_speed_rel": Number("")}.items():
             spec.check(getattr(options, name), f"options.{name}", problems)
+        if t_end_ok and len(problems) == before and t_end / options.output_dt_s > MAX_SAMPLES:
+            problems.append(f"t_end = {t_end:g} s sampled every options.output_dt_s = {options.output_dt_s:g} s "
+                            f"is {t_end / options.output_dt_s:.3g} samples, more than {MAX_SAMPLES:.0e} "
+                            f"(x {L.N_OUT} outputs x 8 bytes); raise output_dt_s or shorten the run")
     else:
         problems.append(f"options must be a SolverOptions, got {show(options)}")
     if isinstance(plant, Plant):

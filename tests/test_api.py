@@ -178,6 +178,7 @@ def test_a_nan_voltage_is_refused_not_run_as_zero():
     (dict(duration_s=-1.0), "simulate: duration_s must be a positive number in s, got -1.0"),
     (dict(duration_s=math.nan), "duration_s must be a positive number in s, got nan"),
     (dict(duration_s=4e-4), "solver.output_dt_s must be at most duration_s (0.0004 s), got 0.001"),
+    (dict(duration_s=1e5), "duration_s = 100000 s sampled every solver.output_dt_s = 0.001 s is 1e+08 samples"),
     (dict(initial_delta_deg=5.0), "initial_delta_deg must lie within +-1.6 deg"),
     (dict(solver={"rtol": 2.0}), "solver.rtol must be a number > 0 and < 1"),
     (dict(solver={"rtoll": 1e-6}), "solver.rtoll is not a solver setting (did you mean 'rtol'?)"),
@@ -207,6 +208,8 @@ def test_the_internal_simulate_checks_its_arguments_too():
     with pytest.raises(gb.ConfigError, match=r"options.max_step_s must be a positive number in s"):
         simulate(plant, gb.Controller("p", kp=50), gb.Segments([0.0], [0.0], [0.0]), 1.0,
                  SolverOptions(max_step_s=-1.0))
+    with pytest.raises(gb.ConfigError, match=r"t_end = 1e\+06 s sampled every options.output_dt_s = 0.001 s"):
+        simulate(plant, gb.Controller("p", kp=50), gb.Segments([0.0], [0.0], [0.0]), 1e6)
 
 
 @pytest.mark.parametrize("args, kwargs, message", [
@@ -420,15 +423,15 @@ def test_segments_give_segments_or_a_named_error(t, v, s, d):
 
 
 @settings(max_examples=60, deadline=None)
-@given(duration=st.one_of(st.floats(-1, 0.05), st.just(math.nan), _ANY), delta=st.one_of(st.floats(-5, 5), _ANY),
+@given(duration=st.one_of(st.floats(-1, 0.05), st.sampled_from([math.nan, math.inf, 1e9, None, True, "1", [1.0]])), delta=st.one_of(st.floats(-5, 5), _ANY),
        solver=st.one_of(st.none(), st.dictionaries(st.sampled_from(["rtol", "method", "max_step_s", "bogus"]),
                                                    st.one_of(st.floats(-1, 1), _ANY), max_size=2)))
 def test_simulate_runs_or_names_the_argument(duration, delta, solver):
-    """Short runs only (at most 0.05 s): a valid call finishes, a bad one is a ConfigError."""
+    """Short runs (at most 0.05 s, or the profile's 10 s): a valid call finishes, a bad one is a ConfigError."""
     try:
         run = gb.simulate(THESIS, gb.Controller("p", kp=50), "profile1", duration, solver=solver,
                           initial_delta_deg=delta)
     except gb.ConfigError as exc:
         assert str(exc).startswith(("simulate: ", "<config>"))
         return
-    assert run.ok and run.time_s[-1] == pytest.approx(duration)
+    assert run.ok and run.time_s[-1] == pytest.approx(10.0 if duration is None else duration)  # None: the profile's
