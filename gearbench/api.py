@@ -834,6 +834,7 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
     from .identify.diagnose import Candidate, _start_values, candidates, try_candidate
     from .identify.fit import Free, Scorer
     from .plant.effects import REGISTRY
+    from .plant.effects.location import key as file_key
     if name not in REGISTRY:
         raise ValueError(f"effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
     options = dict(options or {})
@@ -841,6 +842,14 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
     if not places:
         raise ValueError(f"effect {name}: it cannot be added here (already in the plant, not applicable "
                          f"to it, or options {options} not allowed)")
+    for c in places:  # a misspelt starting value would ride along in the plant, unused
+        keys = {file_key(c.options, q.name) if "location" in REGISTRY[name].options else q.name: q.unit
+                for q in REGISTRY[name].params}
+        for k in start or {}:
+            if k not in keys:
+                carriage = c.options.get("location") == "carriage"
+                listing = ", ".join(k2 if carriage else f"{k2} ({u})" for k2, u in keys.items())
+                raise ValueError(f"effect {c.label()}: {k!r} is not one of its parameters; they are {listing}")
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
     scorer = Scorer(replay)

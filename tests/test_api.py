@@ -369,6 +369,9 @@ def test_fit_gives_a_plant_that_loads_back():
         gb.fit(RIG, HIDDEN, "coulomb")
     with pytest.raises(gb.ConfigError, match="cannot be added here"):
         gb.fit(RIG, HIDDEN, "coulomb_friction", options={"location": "nowhere"})
+    with pytest.raises(gb.ConfigError, match=r"effect coulomb_friction \(load\): 'torq' is not one of its "
+                                             r"parameters; they are torque \(N m"):
+        gb.fit(RIG, HIDDEN, "coulomb_friction", options={"location": "load"}, start={"torq": 1.0})
 
 
 def test_the_example_runs(tmp_path):
