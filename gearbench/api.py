@@ -24,7 +24,7 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -75,7 +75,9 @@ def _as_controller(controller: Any, where: str) -> Controller:
     if isinstance(controller, Controller):
         return controller
     if isinstance(controller, Mapping):
-        allowed = {f.name: "" for f in fields(Controller)}
+        from .control.controllers import KINDS, SETTING_UNITS
+        allowed = {"kind": "|".join(KINDS), **{k: u for k, (u, _) in SETTING_UNITS.items()},
+                   "shift": "boolean", "shift_deg": "deg", "compensator": "name"}
         bad = [unknown_key(f"controller.{k}", k, allowed, "a controller setting")
                for k in controller if k not in allowed]
         _raise(where, bad)

@@ -145,6 +145,14 @@ def test_controller_names_the_setting_and_its_unit(kwargs, message):
     assert message in str(err.value)
 
 
+def test_every_controller_setting_has_a_unit_and_a_kind_that_reads_it():
+    from dataclasses import fields
+    from gearbench.control.controllers import SETTING_UNITS, SETTINGS
+    assert {f.name for f in fields(gb.Controller)} == set(SETTING_UNITS) | {"kind", "shift", "shift_deg",
+                                                                             "compensator"}
+    assert set().union(*SETTINGS.values()) == set(SETTING_UNITS)
+
+
 def test_controller_reports_every_problem_at_once():
     with pytest.raises(gb.ConfigError) as err:
         gb.Controller("pid", kp=-1, ki=-1, kd=-1)

@@ -87,7 +87,7 @@ SETTINGS = {"open": (), "bang_bang": ("band_deg",), "p": ("kp",), "pi": ("kp", "
             "pid": ("kp", "ki", "kd", "derivative_filter_s")}
 """The settings each kind reads (the others must stay at their defaults)."""
 
-_UNITS = {"kp": ("V/deg", True), "ki": ("1/s", False), "kd": ("s", False),
+SETTING_UNITS = {"kp": ("V/deg", True), "ki": ("1/s", False), "kd": ("s", False),
           "derivative_filter_s": ("s", True), "band_deg": ("deg", True)}
 """Each setting's unit and whether it must be > 0 (else >= 0), as in an experiment file."""
 
@@ -169,8 +169,8 @@ class Controller:
         if Choice(tuple(KINDS)).check(self.kind, "kind", problems) is None:
             return problems
         reads = SETTINGS[self.kind]
-        defaults = {f: Controller.__dataclass_fields__[f].default for f in _UNITS}
-        for name, (unit, positive) in _UNITS.items():
+        defaults = {f: Controller.__dataclass_fields__[f].default for f in SETTING_UNITS}
+        for name, (unit, positive) in SETTING_UNITS.items():
             value = getattr(self, name)
             if name in reads:
                 Number(unit, low=0.0, low_strict=positive).check(value, name, problems)
