@@ -257,11 +257,6 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     console.print(f"figures and tables in {out}/")
 
 
-def _defaults(plant, name, cand):
-    from .identify.diagnose import Candidate, _start_values
-    return _start_values(plant, Candidate(name, cand.options))
-
-
 @click.command()
 @common
 @click.option("--effect", "effect_spec", required=True, metavar="'NAME [key=value ...]'",
@@ -283,8 +278,8 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
     The new plant file holds the fitted values with their standard errors as
     comments.  A fit that does not converge says so, writes nothing and exits 1.
     """
+    from .api import fit_candidates
     from .cli_synth import parse_effect
-    from .identify.diagnose import Candidate, candidates, try_candidate
     from .identify.fit import Scorer
     from .experiment.writer import update_plant_yaml
     from .plant.effects import REGISTRY
@@ -297,20 +292,10 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
             raise ValueError(f"--effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
         eff = REGISTRY[name]
         opts = {k: v for k, v in item.items() if k in eff.options}
-        places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in opts.items())]
-        if not places:
-            raise ValueError(f"--effect {name}: it cannot be added here (already in the plant, not applicable "
-                             f"to it, or options {opts} not allowed)")
-        from .identify.fit import Free
-        for p in free:
-            Free.plant(plant, p)  # a bad key is named before any solving
+        start = {k: v for k, v in item.items() if k not in opts}
         scorer = Scorer(replay)
-        with console.status(f"fitting {name} in {len(places)} place(s)"):
-            start = {k: v for k, v in item.items() if k not in eff.options}
-            again = tuple(range(len(plant.effects))) if refit else ()
-            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free), again,
-                                   start=None if not start else {**c.options, **_defaults(plant, name, c), **start},
-                                   max_nfev=max_evals) for c in places]
+        with console.status(f"fitting {name}"):
+            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals)
     except _errors() as exc:
         _fail(exc)
     ok = [t for t in tried if t.ok]

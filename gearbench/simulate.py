@@ -32,29 +32,137 @@ small reversals of a bang-bang run with the shift at rtol 1e-6: 4 impacts
 against 95, and an IAE 0.5 % off the converged one)."""
 
 
-class Segments(NamedTuple):
-    """Piecewise-linear input: on ``[t[k], t[k+1])`` the value is ``v[k] + s[k] (t - t[k])``.
-
-    SI units: s, and rad (set point) or V / N m / N (open-loop input).  ``d``:
-    for a sampled controller, a disturbance (V) added to its output after the
-    saturation, one value per segment (None = none).
-    """
+class _SegmentFields(NamedTuple):
     t: np.ndarray
     v: np.ndarray
     s: np.ndarray
     d: np.ndarray | None = None
 
 
+class Segments(_SegmentFields):
+    """Piecewise-linear input: on ``[t[k], t[k+1])`` the value is ``v[k] + s[k] (t - t[k])``.
+
+    The last segment lasts until the end of the run.  SI units.  The arrays
+    are checked when the segments are made (the compiled core would read past
+    a short array, skip a reversed time and run on a NaN).
+
+    Parameters
+    ----------
+    t : array_like
+        Start of each segment, s: starts at 0, strictly increasing.
+    v : array_like
+        Value at each segment's start: the set point, rad, or for an open
+        controller the input, V (N m or N for a torque or force drive).
+    s : array_like
+        Slope of each segment, rad/s (or V/s, N m/s, N/s).
+    d : array_like or None
+        For a sampled controller, a disturbance added to its output after the
+        saturation, V, one value per segment; None: none.
+
+    Raises
+    ------
+    ConfigError
+        Naming the array, the first bad element and the unit: arrays of
+        different lengths, an empty ``t``, ``t`` not starting at 0 or not
+        strictly increasing, a NaN or infinite value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gearbench import Segments
+    >>> seg = Segments([0.0, 1.0], np.radians([0.0, 10.0]), [0.0, 0.0])  # a 10 deg step at 1 s
+    >>> seg.t
+    array([0., 1.])
+    >>> Segments([0.0, 2.0, 1.0], [0.0, 0.1, 0.2], [0.0, 0.0, 0.0])
+    Traceback (most recent call last):
+    ...
+    gearbench.experiment.files.ConfigError: Segments: t must increase strictly (s): t[2] = 1 s comes after t[1] = 2 s
+    """
+    __slots__ = ()
+
+    def __new__(cls, t, v, s, d=None):
+        arrays, problems = segment_problems(t, v, s, d)
+        if problems:
+            from .experiment.files import ConfigError  # that module imports this one
+            raise ConfigError("Segments", problems)
+        return super().__new__(cls, *arrays)
+
+
+_SEGMENT_UNITS = {"t": "s", "v": "rad, or V (N m, N) for an open controller",
+                  "s": "rad/s, or V/s (N m/s, N/s) for an open controller", "d": "V"}
+
+
+def segment_problems(t, v, s, d=None) -> tuple[list, list[str]]:
+    """The four arrays as float arrays (``d`` may stay None), and every problem found."""
+    arrays, problems = [], []
+    for name, x in zip("tvsd", (t, v, s, d)):
+        if x is None and name == "d":
+            arrays.append(None)
+            continue
+        unit = _SEGMENT_UNITS[name]
+        try:
+            a = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            problems.append(f"{name} must be a one-dimensional array of numbers in {unit}, "
+                            f"got a {type(x).__name__}")
+            arrays.append(None)
+            continue
+        if a.ndim != 1 or a.size == 0:
+            problems.append(f"{name} must be a non-empty one-dimensional array in {unit}, "
+                            f"got shape {a.shape}")
+            arrays.append(None)
+            continue
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            more = f" ({bad.size} bad in all)" if bad.size > 1 else ""
+            problems.append(f"{name}[{bad[0]}] is {a[bad[0]]}: every value must be a finite number "
+                            f"in {unit}{more}")
+        arrays.append(a)
+    t = arrays[0]
+    for name, a in zip("vsd", arrays[1:]):
+        if a is not None and t is not None and a.size != t.size:
+            problems.append(f"{name} has {a.size} values, t has {t.size}: one per segment")
+    if t is not None and np.all(np.isfinite(t)):
+        if t[0] != 0.0:
+            problems.append(f"t[0] must be 0 s (a run starts at t = 0), got {t[0]:g} s")
+        back = np.flatnonzero(np.diff(t) <= 0.0)
+        if back.size:
+            k = int(back[0]) + 1
+            problems.append(f"t must increase strictly (s): t[{k}] = {t[k]:g} s comes after "
+                            f"t[{k - 1}] = {t[k - 1]:g} s")
+    return arrays, problems
+
+
 @dataclass(frozen=True)
 class SolverOptions:
-    """method: ``rodas4`` (default: L-stable Rosenbrock, fourth order),
-    ``rosenbrock23`` (alias ``ode23s``, the thesis's stiff method, second
-    order) or ``dopri5`` (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
-    follow from each state's typical scale); max_step_s: largest step, s (events
-    inside a step are caught at the interpolant's extrema; the cap is a backstop);
-    output_dt_s: sampling interval of the returned trace, s;
-    friction_speed_rel: the speed below which friction's sign is regularised
-    (``tanh(w/eps)``), relative to each shaft's typical speed."""
+    """How a run is solved; :func:`simulate` checks it as an experiment's ``solver:`` section.
+
+    Parameters
+    ----------
+    method : str
+        ``rodas4`` (default: L-stable Rosenbrock, fourth order),
+        ``rosenbrock23`` (alias ``ode23s``, the thesis's stiff method, second
+        order) or ``dopri5`` (alias ``ode45``, explicit).
+    rtol : float
+        Relative tolerance, between 0 and 1 (absolute tolerances follow from
+        each state's typical scale).
+    max_step_s : float
+        Largest step, s (events inside a step are caught at the
+        interpolant's extrema; the cap is a backstop).
+    max_steps : int
+        Step budget of one run.
+    output_dt_s : float
+        Sampling interval of the returned trace, s.
+    friction_speed_rel : float
+        The speed below which friction's sign is regularised
+        (``tanh(w/eps)``), relative to each shaft's typical speed.
+
+    Examples
+    --------
+    >>> from gearbench import SolverOptions
+    >>> SolverOptions(rtol=1e-7).method
+    'rodas4'
+    """
     method: str = "rodas4"
     rtol: float = 1e-6
     max_step_s: float = 1e-2
@@ -149,8 +257,13 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
     ``delta0`` places the mesh inside its clearance at the start (rad, 0 =
     centred).  A failed run comes back with ``ok == False`` and its status,
     or raises :class:`SolverError` naming the run, the time and the likely
-    cause when ``raise_on_failure``.
+    cause when ``raise_on_failure``.  The arguments are checked first: a
+    :class:`~gearbench.experiment.files.ConfigError` names each bad one and its unit.
     """
+    problems = run_problems(plant, controller, inputs, t_end, delta0, options)
+    if problems:
+        from .experiment.files import ConfigError  # that module imports this one
+        raise ConfigError("simulate", problems)
     run = simulate_packed(pack(plant, controller), tolerance_scales(plant), inputs, t_end,
                           rest_state(plant, delta0), options, label)
     if not run.ok:
@@ -159,6 +272,44 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
         if raise_on_failure:
             raise SolverError(failure_message(run, plant.name, plant))
     return run
+
+
+MAX_SAMPLES = 10_000_000
+"""Most samples a returned trace may hold (720 MB of outputs); more is refused, not allocated."""
+
+
+def run_problems(plant, controller, inputs, t_end, delta0=0.0,
+                 options: SolverOptions = SolverOptions()) -> list[str]:
+    """What is wrong with :func:`simulate`'s arguments (empty when nothing is)."""
+    from .experiment.schema import Number, show  # gearbench.experiment imports this module
+    problems = []
+    for name, value, cls in (("plant", plant, Plant), ("controller", controller, Controller),
+                             ("inputs", inputs, Segments)):
+        if not isinstance(value, cls):
+            problems.append(f"{name} must be a {cls.__name__}, got {show(value)}")
+    t_end_ok = Number("s").check(t_end, "t_end", problems) is not None
+    if isinstance(options, SolverOptions):
+        from .experiment.files import SOLVER
+        before = len(problems)
+        for name, spec in {**SOLVER, "friction_speed_rel": Number("")}.items():
+            spec.check(getattr(options, name), f"options.{name}", problems)
+        if t_end_ok and len(problems) == before and t_end / options.output_dt_s > MAX_SAMPLES:
+            problems.append(f"t_end = {t_end:g} s sampled every options.output_dt_s = {options.output_dt_s:g} s "
+                            f"is {t_end / options.output_dt_s:.3g} samples, more than {MAX_SAMPLES:.0e} "
+                            f"(x {L.N_OUT} outputs x 8 bytes); raise output_dt_s or shorten the run")
+    else:
+        problems.append(f"options must be a SolverOptions, got {show(options)}")
+    if isinstance(plant, Plant):
+        h_deg = plant.gear.backlash_deg / 2.0
+        if Number("rad", low=None).check(delta0, "delta0", problems) is not None \
+                and abs(delta0) > math.radians(h_deg):
+            problems.append(f"delta0 must lie within +-{math.radians(h_deg):.6g} rad (half of "
+                            f"gear.backlash_deg = {2 * h_deg:g} deg), got {delta0!r}")
+        shift = getattr(controller, "shift_deg", None)
+        if shift is not None and shift > 2 * h_deg:
+            problems.append(f"controller.shift_deg must lie between 0 and the clearance "
+                            f"gear.backlash_deg = {2 * h_deg:g} deg, got {shift!r}")
+    return problems
 
 
 def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: float,

@@ -40,7 +40,30 @@ class Profile:
     """Piecewise-linear set point in degrees and seconds.
 
     On ``[start_s[k], start_s[k+1])`` the set point is
-    ``value_deg[k] + slope_deg_per_s[k] (t - start_s[k])``.
+    ``value_deg[k] + slope_deg_per_s[k] (t - start_s[k])``.  Made by
+    :func:`load_profile` or ``gearbench.setpoint`` (which check it).
+
+    Parameters
+    ----------
+    name : str
+        Shown in tables and titles.
+    start_s : tuple of float
+        Start of each segment, s (the first 0, strictly increasing).
+    value_deg : tuple of float
+        Value at each segment's start, deg.
+    slope_deg_per_s : tuple of float
+        Slope of each segment, deg/s.
+    duration_s : float
+        Length of a run on this profile, s.
+    description : str
+        Free text.
+
+    Examples
+    --------
+    >>> from gearbench import load_profile
+    >>> p1 = load_profile("profile1")
+    >>> p1.duration_s, float(p1(10.0))
+    (10.0, 0.0)
     """
     name: str
     start_s: tuple
@@ -102,7 +125,32 @@ class Profile:
 
 def load_profile(ref: str | Path, search_dir: Path | None = None) -> Profile:
     """Load a profile by path (YAML or CSV), or by name: a file in ``search_dir``, a built-in
-    (``profile1`` ... ``profile3``, the thesis's) or a file in the working directory."""
+    (``profile1`` ... ``profile3``, the thesis's) or a file in the working directory.
+
+    Parameters
+    ----------
+    ref : str or Path
+        A name (``profile1``: ``<name>.yaml``) or a file path.
+    search_dir : Path, optional
+        Folder searched first; then the built-in profiles and the working directory.
+
+    Returns
+    -------
+    Profile
+        In degrees and seconds; ``.segments()`` gives it in SI for the solver.
+
+    Raises
+    ------
+    ProfileError
+        Naming the file and the key (or row) that is wrong.
+
+    Examples
+    --------
+    >>> from gearbench import load_profile
+    >>> p3 = load_profile("profile3")
+    >>> p3.name, len(p3.steps())
+    ('profile3', 4)
+    """
     path = _resolve(ref, search_dir)
     if path.suffix.lower() == ".csv":
         return _load_csv(path)
