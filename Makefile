@@ -34,8 +34,8 @@ run: install
 		--markdown results/gain_scan.md
 	$(BIN)/gearbench compare experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/gearbench diagnose experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
-	$(BIN)/python -m gearbench.studies.hidden_effects --results results
-	$(BIN)/python -m gearbench.studies.emps --results results --no-library
+	$(BIN)/python -m studies.hidden_effects --results results
+	$(BIN)/python -m studies.emps --results results --no-library
 
 test: install-test
 	$(BIN)/python -m pytest -q
@@ -50,7 +50,7 @@ bench: install
 
 # the EMPS study with the ladder over the whole effect library too (about 70 min on 2 cores)
 emps-library: install
-	$(BIN)/python -m gearbench.studies.emps --results results
+	$(BIN)/python -m studies.emps --results results
 
 clean-cache:
 	rm -rf $$HOME/.cache/gearbench

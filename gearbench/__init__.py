@@ -28,3 +28,55 @@ if "NUMBA_CACHE_DIR" not in os.environ:
     import sys as _sys
     if "numba" in _sys.modules:  # numba read its config already
         _sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+
+
+# ---------------------------------------------------------------- public API
+# Names are imported on first use (module __getattr__), so ``import gearbench``
+# stays cheap: the solver, numba, pandas and matplotlib load with the first call.
+import importlib as _importlib
+import sys as _sys
+import types as _types
+
+_EXPORTS = {
+    # build or load
+    "load_plant": ".experiment.files", "load_experiment": ".experiment.files",
+    "load_profile": ".profiles", "Profile": ".profiles", "setpoint": ".api",
+    "Controller": ".control.controllers", "Segments": ".simulate", "SolverOptions": ".simulate",
+    "load_measurement": ".api",
+    # run and judge
+    "simulate": ".api", "run_experiment": ".api", "compare": ".api", "diagnose": ".api", "fit": ".api",
+    # results
+    "Simulation": ".api", "Comparison": ".api", "DiagnosisReport": ".api", "FitReport": ".api",
+    # errors
+    "ConfigError": ".experiment.files", "MeasurementError": ".measure.data", "SolverError": ".simulate",
+    "ReplayError": ".identify.replay", "FitError": ".identify.fit", "ProfileError": ".profiles",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(_importlib.import_module(_EXPORTS[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'gearbench' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(_types.ModuleType):
+    """The package, guarding its exported names: importing the submodule
+    ``gearbench.simulate`` sets the package attribute ``simulate`` to that
+    module, which would hide the API function ``gearbench.simulate``.  The
+    submodule stays importable (``from gearbench.simulate import Segments``)."""
+
+    def __setattr__(self, name, value):
+        if name in _EXPORTS and isinstance(value, _types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+_sys.modules[__name__].__class__ = _Package

@@ -1,24 +1,16 @@
 """The ``gearbench`` command line (click)."""
 from __future__ import annotations
 
-import json
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 import click
-from rich.console import Console
-
-console = Console(stderr=True)
-
-
-def _fail(exc: Exception) -> None:
-    """Print a clear error (what is wrong, where) and exit with status 2."""
-    console.print(f"[bold red]error:[/] {exc}", markup=True, highlight=False)
-    sys.exit(2)
+from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,  # noqa: F401
+                         is_interrupt, stdout)
 
 
-@click.group()
+@click.group(cls=Group, epilog=EXIT_HELP)
 @click.version_option(package_name="gearbench")
 def main() -> None:
     """gearbench: geartrains with backlash under control; models against measurements."""
@@ -33,8 +25,13 @@ def main() -> None:
 @click.option("--method", type=click.Choice(["rodas4", "rosenbrock23", "ode23s", "dopri5", "ode45"]), default=None,
               help="Override the experiment's solver method.")
 @click.option("--rtol", type=float, default=None, help="Override the experiment's relative tolerance.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Processes solving the runs (default: all cores; 1 = in this process).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {experiment, runs: [{label, status, message, scores...}], failed, table, files} "
+                   "as one JSON object on stdout instead of the table.")
 def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: str | None,
-        rtol: float | None) -> None:
+        rtol: float | None, workers: int | None, as_json: bool) -> None:
     """Run EXPERIMENT (a YAML file): every profile x controller x shift.
 
     Writes RESULTS/<name>.csv (profile, controller, kp, shift, iae_deg_s,
@@ -44,6 +41,10 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
     compensator, the IAE and the voltage sign changes instead, and the figures
     RESULTS/<name>.png (bars) and RESULTS/<name>_traces.png (the traces of the
     cell with the most sign changes).
+
+    Exit status 1 when a run fails (the solver could not finish it): the tables
+    are still written, with its status, and each failed run is named on stderr
+    with the likely cause.  Ctrl-C: status 130, no table written.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -67,25 +68,33 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
         exp = replace(exp, solver=replace(exp.solver, method=method or exp.solver.method,
                                           rtol=rtol or exp.solver.rtol))
     out_dir = results_dir / exp.name
-    failures = []
+    finished: list = []
+    written: list[Path] = []
+    total = len(exp.runs())
 
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeRemainingColumn(), console=console, transient=True) as progress:
-        task = progress.add_task(f"{exp.name}", total=len(exp.runs()))
+    try:
+        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                      TimeRemainingColumn(), console=console, transient=True) as progress:
+            task = progress.add_task(f"{exp.name}", total=total)
 
-        def done(rec):
-            progress.update(task, advance=1, description=f"{exp.name}: {rec.label}")
-            if not rec.result.ok:
-                failures.append(rec.result.meta["message"])
-            if plot:
-                import matplotlib.pyplot as plt
-                fig = run_figure(rec.result, exp.plant)
-                save_figure_atomic(fig, out_dir / "plots" / f"{rec.label}.png")
-                plt.close(fig)
-            if traces:
-                write_csv_atomic(trace_frame(rec.result, exp.plant), out_dir / "traces" / f"{rec.label}.csv")
+            def done(rec):
+                progress.update(task, advance=1, description=f"{exp.name}: {rec.label}")
+                finished.append(rec)
+                if plot:
+                    import matplotlib.pyplot as plt
+                    fig = run_figure(rec.result, exp.plant)
+                    written.append(save_figure_atomic(fig, out_dir / "plots" / f"{rec.label}.png"))
+                    plt.close(fig)
+                if traces:
+                    written.append(write_csv_atomic(trace_frame(rec.result, exp.plant),
+                                                    out_dir / "traces" / f"{rec.label}.csv"))
 
-        records = run_experiment(exp, on_done=done, keep_traces=plot or traces)
+            records = run_experiment(exp, on_done=done, keep_traces=plot or traces, workers=workers)
+    except (Exception, KeyboardInterrupt) as exc:
+        if not is_interrupt(exc):
+            raise
+        interrupted(f"{len(finished)} of {total} runs of {exp.name} finished; no table written"
+                    + (f"; their plots/traces are in {out_dir}" if written else ""))
 
     from .report import variants
     if exp.compensators:
@@ -96,10 +105,14 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
         markdown = variants.compensator_markdown(runs, title, exp.description)
         import matplotlib.pyplot as plt
         fig = variants.compensator_figure(runs, title)
-        save_figure_atomic(fig, results_dir / f"{exp.name}.png")
+        written.append(save_figure_atomic(fig, results_dir / f"{exp.name}.png"))
         plt.close(fig)
-        fig, _ = variants.compensator_trace_figure(records, exp.plant)
-        save_figure_atomic(fig, results_dir / f"{exp.name}_traces.png")
+        _, shown_runs = variants.trace_cell(records)
+        if not (plot or traces):  # solved for their scores only: solve the shown cell again with its trace
+            from .runner import retrace
+            shown_runs = retrace(exp, shown_runs)
+        fig, _ = variants.compensator_trace_figure(shown_runs, exp.plant)
+        written.append(save_figure_atomic(fig, results_dir / f"{exp.name}_traces.png"))
         plt.close(fig)
         shown = runs[columns].to_string(index=False)
     elif exp.plant.leadscrew is not None:
@@ -115,14 +128,26 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
         title = f"{exp.name}: integrated absolute output error (deg s)"
         markdown = tables.table1_markdown(runs, title, exp.description)
         shown = tables.rich_table(runs, title)
-    write_csv_atomic(runs[columns], results_dir / f"{exp.name}.csv")
-    write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv")
-    write_text_atomic(results_dir / f"{exp.name}.md", markdown)
-    Console().print(shown)
+    written.append(write_csv_atomic(runs[columns], results_dir / f"{exp.name}.csv"))
+    written.append(write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv"))
+    written.append(write_text_atomic(results_dir / f"{exp.name}.md", markdown))
+    failed = [rec for rec in records if not rec.result.ok]
+    if as_json:
+        echo_json({"experiment": exp.name, "file": str(experiment), "runs": [
+            {"label": rec.label, **rec.row(), "message": rec.result.meta.get("message", "")} for rec in records],
+            "failed": [rec.label for rec in failed], "table": runs[columns].to_dict("records"),
+            "files": [str(p) for p in written]})
+    else:
+        stdout().print(shown)
     wall = sum(r.wall_s for r in records)
-    console.print(f"{len(records)} runs, {wall:.2f} s of solving; wrote {results_dir / exp.name}.csv/.md")
-    for msg in failures:
-        console.print(f"[yellow]warning:[/] {msg}", highlight=False)
+    console.print(f"{len(records)} runs, {wall:.2f} s of solving; wrote {results_dir / exp.name}.csv/.md",
+                  highlight=False)
+    if failed:
+        for rec in failed:
+            console.print(f"[bold red]failed:[/] {rec.result.meta['message']}", highlight=False)
+        console.print(f"[bold red]error:[/] {len(failed)} of {len(records)} runs failed: "
+                      f"{', '.join(rec.label for rec in failed)}", highlight=False)
+        sys.exit(EXIT_FAILED)
 
 
 @main.command()
@@ -140,7 +165,7 @@ def info(plant_file: Path, as_json: bool) -> None:
         _fail(exc)
     data = plant_info(plant)
     if as_json:
-        click.echo(json.dumps(data, indent=2))
+        echo_json(data, indent=2)
         return
     from rich.table import Table
     t = Table(title=f"{plant.name}")
@@ -150,10 +175,10 @@ def info(plant_file: Path, as_json: bool) -> None:
         if key == "modes":
             continue
         t.add_row(key, "—" if value is None else f"{value:.6g}")
-    Console().print(t)
+    stdout().print(t)
     for mode in data["modes"]:
-        Console().print(f"engaged mode: {mode['frequency_hz']:.6g} Hz, damping ratio "
-                        f"{mode['damping_ratio']:.3g}, mostly {mode['dominant_state']}")
+        stdout().print(f"engaged mode: {mode['frequency_hz']:.6g} Hz, damping ratio "
+                       f"{mode['damping_ratio']:.3g}, mostly {mode['dominant_state']}")
 
 
 from .cli_sweep import stability, sweep  # noqa: E402 - registered after the group exists

@@ -7,15 +7,10 @@ import sys
 from pathlib import Path
 
 import click
-from rich.console import Console
 from rich.table import Table
 
-console = Console(stderr=True)
+from .cli_common import EXIT_FAILED, _fail, console, echo_json, stdout
 
-
-def stdout() -> Console:
-    """Tables on stdout; wide enough when piped (rich would fold them to 80 columns)."""
-    return Console(width=None if sys.stdout.isatty() else 120)
 
 _common = [
     click.argument("plant_file", metavar="PLANT.yaml", type=click.Path(exists=True, dir_okay=False, path_type=Path)),
@@ -32,14 +27,13 @@ _common = [
 
 
 def common(f):
+    from .cli_import import column_options  # --columns/--units/--columns-file: read by _setup
+    f = column_options(expose=False)(f)
     for deco in reversed(_common):
         f = deco(f)
     return f
 
 
-def _fail(exc: Exception) -> None:
-    from .cli import _fail as fail
-    fail(exc)
 
 
 def _setup(plant_file, data_file, controller_file, window_s, rtol):
@@ -47,10 +41,11 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol):
     from .experiment.controller_file import load_controller
     from .experiment.files import load_plant
     from .identify.replay import Replay
+    from .cli_import import context_column_map
     from .measure.data import read_measurement
     from .simulate import SolverOptions
     plant = load_plant(plant_file)
-    data = read_measurement(data_file)
+    data = read_measurement(data_file, context_column_map())
     controller = load_controller(controller_file) if controller_file else None
     replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3))
     replay.check(plant)
@@ -75,31 +70,43 @@ def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Pat
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; figures and tables go to RESULTS/compare_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as one JSON object on stdout.")
-def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json):
+@click.option("--lags", type=click.IntRange(min=1), default=25, show_default=True,
+              help="Residual tests: the largest lag, in samples, of the residual's autocorrelation (0..LAGS) "
+                   "and of its cross-correlation with the input (-LAGS..LAGS).")
+def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json, lags):
     """Drive the model as the record was driven and show where it fails.
 
     For each measured signal: RMS and maximum error in its unit, the noise
     floor estimated from the record, their ratio.  Where: the record cut into
     phases (standstill, steady motion, direction reversal, acceleration) with
-    the share of the error each carries.  Figures: measured vs simulated with
-    the residual under it and the phases shaded, one per signal; the residual
-    against speed, position and direction.
+    the share of the error each carries.  Residual tests (as MATLAB's resid):
+    is each residual white, and independent of the input (the set point in
+    closed loop)?  Its autocorrelation and cross-correlation with 99 % bands,
+    and a sentence naming the lags that leave them.  Figures: measured vs
+    simulated with the residual and the input under it, the phases shaded and
+    the re-initialisations marked, one per signal; the residual against speed,
+    position and direction; the residual tests.
     """
     from .identify.compare import comparison
-    from .report.compare import comparison_figure, residual_figure
+    from .report.compare import comparison_figure, residual_figure, residual_tests_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
-        c = comparison(replay, plant)
+        c = comparison(replay, plant, lags=lags)
     except _errors() as exc:
         _fail(exc)
     out = _out_dir(results, "compare", plant_file, data_file)
     t = replay.t
+    # Files, not the plant's name: a plant before and after a fit has one name.
+    what = f"{plant_file.name} against {data_file.name}"
+    inputs = [] if replay.closed_loop else [(data.input_name, data.input, data.input_unit)]
+    if data.setpoint is not None:
+        inputs.append((data.setpoint_name, data.setpoint, data.setpoint_name.rsplit("_", 1)[1]))
     figures = []
     for row in c["signals"]:
         name = row["signal"]
         fig = comparison_figure(t, replay.measured(name), c["sim"][name], c.get("labels"), name, row["unit"],
-                                title=f"{plant.name} vs {data_file.name}")
+                                title=f"{name}: {what}", inputs=inputs, reinit_s=c["reinitialised_s"])
         figures.append(save_figure_atomic(fig, out / f"{name}.png"))
     if "labels" in c:
         p = c["primary"]
@@ -109,11 +116,17 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
         k = per_rad(out_name, plant)
         fig = residual_figure(c["residuals"][p], k * c["speed"], k * c["position"], p, unit,
                               f"{pos_unit}/s at the output", f"{pos_unit} at the output")
+        fig.suptitle(what)
         figures.append(save_figure_atomic(fig, out / f"{p}_residual_vs_motion.png"))
-    summary = {"plant": plant.name, "data": str(data_file), "closed_loop": replay.closed_loop,
-               "signals": c["signals"], "primary": c["primary"], "phases": c.get("phases", {}),
+    tests = c["residual_tests"]
+    figures.append(save_figure_atomic(residual_tests_figure(tests, f"residual tests: {what}"),
+                                      out / "residual_tests.png"))
+    summary = {"plant": plant.name, "plant_file": str(plant_file), "data": str(data_file),
+               "closed_loop": replay.closed_loop, "signals": c["signals"], "primary": c["primary"],
+               "phases": c.get("phases", {}), "reinitialised_s": c["reinitialised_s"],
+               "residual_tests": {k: v.to_json() for k, v in tests.items()},
                "figures": [str(f) for f in figures]}
-    md = [f"# {plant.name} against {data_file.name}", "",
+    md = [f"# {what} (plant {plant.name})", "",
           "| signal | unit | RMS error | max error | noise floor | RMS/noise | relative % |", "|---|---|---|---|---|---|---|"]
     md += [f"| {r['signal']} | {r['unit']} | {r['rms_error']:.4g} | {r['max_error']:.4g} | {r['noise_floor']:.3g} | "
            f"{r['ratio_to_noise']:.3g} | {r['relative_error_pct']:.3g} |" for r in c["signals"]]
@@ -122,13 +135,15 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                "|---|---|---|---|"]
         md += [f"| {k} | {v['time_share']:.1%} | {v['error_share']:.1%} | {v['rms']:.4g} |"
                for k, v in c["phases"].items()]
+    md += ["", "Residual tests (lagged products within each re-initialisation window):", ""]
+    md += [f"- {v.sentence()}" for v in tests.values()]
     md += [""] + [f"![{f.name}]({f.name})" for f in figures]
     write_text_atomic(out / "compare.md", "\n".join(md) + "\n")
     write_text_atomic(out / "compare.json", json.dumps(summary, indent=1) + "\n")
     if as_json:
-        click.echo(json.dumps(summary, indent=1))
+        echo_json(summary)
         return
-    tab = Table(title=f"{plant.name} against {data_file.name} ({'closed' if replay.closed_loop else 'open'} loop)")
+    tab = Table(title=f"{what} ({'closed' if replay.closed_loop else 'open'} loop)")
     for col in ("signal", "unit", "RMS error", "max error", "noise floor", "RMS/noise", "relative %"):
         tab.add_column(col, justify="left" if col in ("signal", "unit") else "right", no_wrap=True)
     for r in c["signals"]:
@@ -142,6 +157,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
         for k, v in c["phases"].items():
             tp.add_row(k, f"{v['time_share']:.1%}", f"{v['error_share']:.1%}", f"{v['rms']:.4g}")
         stdout().print(tp)
+    stdout().print("[bold]residual tests[/]")
+    for v in tests.values():
+        stdout().print(v.sentence(), highlight=False, soft_wrap=True)
     console.print(f"figures and tables in {out}/")
 
 
@@ -156,8 +174,10 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first), "
-                   "verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
+              help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first "
+                   "by BIC: the Bayesian information criterion n ln(RSS/n) + k ln n of the noise-weighted residuals "
+                   "of every compared signal, lowest first, failed fits last with error and bic null, a status "
+                   "and a message), verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
                    "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
                    "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
                    "(e.g. the drive force) in closed loop.")
@@ -190,8 +210,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         _fail(exc)
     j = d.to_json()
     out = _out_dir(results, "diagnose", plant_file, data_file)
-    steps = [{"effect": "baseline", "error": d.baseline_error}] + [{"effect": s.effect, "error": s.error}
-                                                                  for s in d.ladder]
+    steps = [{"effect": "baseline", "error": d.baseline_error}] + [
+        {"effect": s.effect, "error": s.error, "action": s.action} for s in d.ladder]
     fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}")
     save_figure_atomic(fig, out / "ladder.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
@@ -200,12 +220,13 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
           "", f"Verdict: **{d.verdict}**" if d.verdict else f"Verdict: none. {d.reason}.", "",
           "| step | effect | parameters | error |", "|---|---|---|---|",
           f"| 0 | (baseline) | | {d.baseline_error:.4g} {d.unit} |"]
-    md += [f"| {i} | {s.effect} {s.options or ''} | " + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items())
-           + f" | {s.error:.4g} {d.unit} |" for i, s in enumerate(d.ladder, 1)]
+    md += [f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
+           + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |"
+           for i, s in enumerate(d.ladder, 1)]
     md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
     write_text_atomic(out / "diagnose.md", "\n".join(md) + "\n")
     if as_json:
-        click.echo(json.dumps(j, indent=1))
+        echo_json(j)
         return
     tab = Table(title=f"candidates for {plant.name} against {data_file.name} (best first)")
     for col in ("effect", "parameters", f"error ({d.unit})", "BIC"):
@@ -220,7 +241,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         lad.add_column(col)
     lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
     for i, s in enumerate(d.ladder, 1):
-        lad.add_row(str(i), s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
+        lad.add_row(str(i), ("taken out: " if s.action == "remove" else "")
+                    + s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
                     ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
     stdout().print(lad)
     stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
@@ -235,11 +257,6 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     console.print(f"figures and tables in {out}/")
 
 
-def _defaults(plant, name, cand):
-    from .identify.diagnose import Candidate, _start_values
-    return _start_values(plant, Candidate(name, cand.options))
-
-
 @click.command()
 @common
 @click.option("--effect", "effect_spec", required=True, metavar="'NAME [key=value ...]'",
@@ -251,16 +268,20 @@ def _defaults(plant, name, cand):
               help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The new plant file (written only if the fit converges).")
-def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, max_evals, output):
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {converged, effect, values, stderr, error_before, error_after, error_signal, "
+                   "output, tried} as one JSON object on stdout instead of the table.")
+def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, max_evals, output,
+        as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors as
     comments.  A fit that does not converge says so, writes nothing and exits 1.
     """
+    from .api import fit_candidates
     from .cli_synth import parse_effect
-    from .identify.diagnose import Candidate, candidates, try_candidate
     from .identify.fit import Scorer
-    from .experiment.writer import plant_to_yaml
+    from .experiment.writer import update_plant_yaml
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic
     try:
@@ -271,33 +292,36 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
             raise ValueError(f"--effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
         eff = REGISTRY[name]
         opts = {k: v for k, v in item.items() if k in eff.options}
-        places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in opts.items())]
-        if not places:
-            raise ValueError(f"--effect {name}: it cannot be added here (already in the plant, not applicable "
-                             f"to it, or options {opts} not allowed)")
-        from .identify.fit import Free
-        for p in free:
-            Free.plant(plant, p)  # a bad key is named before any solving
+        start = {k: v for k, v in item.items() if k not in opts}
         scorer = Scorer(replay)
-        with console.status(f"fitting {name} in {len(places)} place(s)"):
-            start = {k: v for k, v in item.items() if k not in eff.options}
-            again = tuple(range(len(plant.effects))) if refit else ()
-            tried = [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free), again,
-                                   start=None if not start else {**c.options, **_defaults(plant, name, c), **start},
-                                   max_nfev=max_evals) for c in places]
+        with console.status(f"fitting {name}"):
+            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals)
     except _errors() as exc:
         _fail(exc)
     ok = [t for t in tried if t.ok]
+    attempts = [{"effect": t.candidate.label(), "converged": t.ok, "note": t.note} for t in tried]
     if not ok:
         notes = "; ".join(f"{t.candidate.label()}: {t.note}" for t in tried)
-        click.echo(f"the fit did not converge: {notes}. The plant is unchanged; nothing written.", err=True)
-        sys.exit(1)
+        if as_json:
+            echo_json({"converged": False, "effect": name, "output": None, "tried": attempts})
+        console.print(f"[bold red]error:[/] the fit did not converge: {notes}. The plant is unchanged; "
+                      "nothing written.", highlight=False)
+        sys.exit(EXIT_FAILED)
     best = min(ok, key=lambda t: t.result.bic)
     res = best.result
     base_err = Scorer(replay).error(replay.run(plant))
     header = (f"{plant.name} + {best.candidate.label()}, fitted by gearbench fit to {data_file.name}\n"
               f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}")
-    write_text_atomic(output, plant_to_yaml(res.plant, res.stderr, header))
+    # the user's file edited in place of a fresh dump: comments, key order and description stay
+    write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, res.plant,
+                                                res.stderr, header))
+    if as_json:
+        echo_json({"converged": True, "effect": best.candidate.label(), "values": res.values,
+                   "stderr": res.stderr, "error_signal": scorer.primary, "error_before": base_err,
+                   "error_after": res.error, "output": str(output), "tried": attempts})
+        console.print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}",
+                      highlight=False)
+        return
     tab = Table(title=f"{best.candidate.label()} fitted to {data_file.name}")
     for col in ("parameter", "value", "standard error"):
         tab.add_column(col)

@@ -1,20 +1,14 @@
 """``gearbench sweep`` and ``gearbench stability`` (registered on the main group in cli.py)."""
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
 
 import click
-from rich.console import Console
 
-console = Console(stderr=True)
+from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, is_interrupt, stdout
 
-
-def _fail(exc: Exception) -> None:
-    console.print(f"[bold red]error:[/] {exc}", markup=True, highlight=False)
-    sys.exit(2)
 
 
 PARAM_HELP = ("KEY=VALUES, repeatable: several make a grid. KEY is a dotted path into the "
@@ -39,8 +33,11 @@ PARAM_HELP = ("KEY=VALUES, repeatable: several make a grid. KEY is a dotted path
                    "'<!-- gearbench:sweep NAME PARAMS begin/end -->' markers (one block per "
                    "experiment and grid); the rest of the file is kept.")
 @click.option("--fresh", is_flag=True, help="Delete the stored points of this sweep and solve all again.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {sweep, points, solved, reused, failed, lost, rows: [one per point and run], "
+                   "files} as one JSON object on stdout instead of the table.")
 def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers: int | None,
-          scheduler: str | None, summary_path: Path | None, fresh: bool) -> None:
+          scheduler: str | None, summary_path: Path | None, fresh: bool, as_json: bool) -> None:
     """Sweep EXPERIMENT's settings over a grid: one simulation per grid point and run.
 
     Every finished point is appended at once to RESULTS/<name>/sweep.csv (its
@@ -50,6 +47,10 @@ def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers:
     the stored points, so a killed sweep resumes. At the end: sweep.md (a
     table, the least IAE per run) and sweep.png (IAE against the swept key, or
     a heat map for two keys). Every grid point is validated before any solving.
+
+    Exit status 1 when a point failed (now or in a stored earlier attempt: the
+    failed points are named; --fresh solves them again) or was lost with its
+    worker; 130 on Ctrl-C, with the finished points stored and no summary written.
 
     Example: gearbench sweep experiments/gain_scan.yaml --param controller.kp=0.5,5,50,500,5000
     """
@@ -76,12 +77,16 @@ def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers:
                   console=console, transient=True) as progress:
         task = progress.add_task(f"sweep {plan.name}", total=None)
 
+        stored_before, solved = [0], [0]
+
         def start(pending: int, stored: int) -> None:
+            stored_before[0] = stored
             console.print(f"sweep {plan.name}: {len(plan.points)} points, {stored} already stored, "
                           f"{pending} to solve on {where}", highlight=False)
             progress.update(task, total=pending)
 
         def done(point, row) -> None:
+            solved[0] += 1
             at = ", ".join(f"{k}={v}" for k, v in point.params.items())
             progress.update(task, advance=1, description=f"{plan.name}: {at} {point.profile}")
 
@@ -90,6 +95,22 @@ def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers:
                                 fresh=fresh, on_start=start, on_done=done)
         except SweepError as exc:
             _fail(exc)
+        except Exception as exc:
+            # a Ctrl-C inside compiled code comes as a SystemError caused by it (run_sweep takes
+            # the plain KeyboardInterrupt itself); the store holds every finished point
+            if not is_interrupt(exc):
+                raise
+            interrupted(f"{stored_before[0] + solved[0]} of {len(plan.points)} points are stored in "
+                        f"{results_dir / plan.name / 'sweep.csv'}; no summary written; run the same "
+                        f"command again to resume")
+
+    if outcome.interrupted:
+        stored = sum(row is not None for row in outcome.rows)
+        console.print(f"{outcome.solved} solved, {outcome.reused} reused before the interrupt",
+                      highlight=False)
+        # the store keeps every finished point; a summary of part of the grid is not written
+        interrupted(f"{stored} of {len(plan.points)} points are stored in {outcome.csv_path}; "
+                    f"no summary written; run the same command again to resume")
 
     frame = report.sweep_frame(outcome)
     out_dir = outcome.csv_path.parent
@@ -97,29 +118,38 @@ def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers:
     fig = report.sweep_figure(frame, plan)
     png = save_figure_atomic(fig, out_dir / "sweep.png")
     plt.close(fig)
-    write_text_atomic(out_dir / "sweep.md", report.summary_markdown(frame, plan, command, "sweep.png"))
+    md = write_text_atomic(out_dir / "sweep.md", report.summary_markdown(frame, plan, command, "sweep.png"))
     if summary_path is not None:
         rel = os.path.relpath(png.resolve(), summary_path.resolve().parent)
         # one block per experiment and grid, so several sweeps can share one file
         tag = f"sweep {plan.name} " + " ".join(p.replace("--", "-") for p in params)
         update_block(summary_path, tag, report.summary_markdown(frame, plan, command, rel))
-    Console().print(report.rich_table(frame, plan))
     failed = frame[(frame["status"] != "ok") & (frame["status"] != "not run")]
+    keys = [p.key for p in plan.params]
+    failed_names = [f"{', '.join(f'{k}={row[k]}' for k in keys)} ({row['series']})" for _, row in failed.iterrows()]
+    if as_json:
+        echo_json({"sweep": plan.name, "file": str(experiment), "params": list(params),
+                   "points": len(plan.points), "solved": outcome.solved, "reused": outcome.reused,
+                   "failed": failed_names, "lost": outcome.lost, "rows": frame.to_dict("records"),
+                   "files": [str(outcome.csv_path), str(md), str(png)]
+                   + ([str(summary_path)] if summary_path else [])})
+    else:
+        stdout().print(report.rich_table(frame, plan))
     console.print(f"{outcome.solved} solved, {outcome.reused} reused, {len(failed)} failed; wrote "
                   f"{outcome.csv_path}, {out_dir / 'sweep.md'}, {png}"
                   + (f", {summary_path}" if summary_path else ""), highlight=False)
-    for msg in failed["message"]:
-        console.print(f"[yellow]warning:[/] {msg}", highlight=False)
-    if outcome.interrupted:
-        console.print("[yellow]interrupted:[/] the finished points are stored; run the same "
-                      "command again to resume", highlight=False)
-        sys.exit(130)
-    if outcome.lost:
-        for msg in outcome.lost:
-            console.print(f"[red]lost:[/] {msg}", highlight=False)
-        console.print("some points were lost with their worker; run the same command again to "
-                      "solve them", highlight=False)
-        sys.exit(1)
+    for name, msg in zip(failed_names, failed["message"]):
+        console.print(f"[bold red]failed:[/] point {name}: {msg}", highlight=False)
+    for msg in outcome.lost:
+        console.print(f"[red]lost:[/] {msg}", highlight=False)
+    if len(failed) or outcome.lost:
+        problems = [f"{len(failed)} of {len(frame)} points failed"
+                    + (" (stored failures stay until --fresh)" if outcome.reused else "")] if len(failed) else []
+        if outcome.lost:
+            problems.append(f"{len(outcome.lost)} points were lost with their worker; run the same "
+                            f"command again to solve them")
+        console.print(f"[bold red]error:[/] {'; '.join(problems)}", highlight=False)
+        sys.exit(EXIT_FAILED)
 
 
 @click.command()
@@ -177,18 +207,19 @@ def stability(plant_file: Path, kind: str, ki: float, kd: float, tf: float, at: 
     if md_path is not None:
         update_block(md_path, f"stability {kind}", stability_markdown(rep, command))
     if as_json:
-        click.echo(json.dumps(rep.to_dict(), indent=2))
+        echo_json(rep.to_dict(), indent=2)
         return
-    Console().print(rich_table(rep))
+    out = stdout()
+    out.print(rich_table(rep))
     for iv in rep.intervals:
-        Console().print(f"stable (Routh-Hurwitz): [bold]{_range(iv)}[/]", highlight=False)
+        out.print(f"stable (Routh-Hurwitz): [bold]{_range(iv)}[/]", highlight=False)
     if not rep.intervals:
-        Console().print("stable (Routh-Hurwitz): for no Kp > 0")
+        out.print("stable (Routh-Hurwitz): for no Kp > 0")
     scan = rep.to_dict()["eigen_scan"]
-    Console().print(f"eigenvalue scan: {scan['agree']}/{scan['points']} gains agree "
+    out.print(f"eigenvalue scan: {scan['agree']}/{scan['points']} gains agree "
                     f"({scan['kp_min']:g} ... {scan['kp_max']:g} V/deg)", highlight=False)
     free = " or ".join(_range(iv) for iv in rep.free_intervals) or "no Kp > 0"
-    Console().print(f"teeth apart (motor alone in the clearance): stable for {free}", highlight=False)
+    out.print(f"teeth apart (motor alone in the clearance): stable for {free}", highlight=False)
     if rep.rigid_bound is not None:
-        Console().print(f"rigid-gear third-order approximation: Kp < {rep.rigid_bound:.6g} V/deg",
+        out.print(f"rigid-gear third-order approximation: Kp < {rep.rigid_bound:.6g} V/deg",
                         highlight=False)

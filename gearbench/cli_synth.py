@@ -16,11 +16,9 @@ from pathlib import Path
 
 import click
 
+from .cli_common import _fail, console, echo_json
 
-def _fail(exc: Exception) -> None:
-    from .cli import _fail as fail  # late: cli.py imports this module at its end
 
-    fail(exc)
 
 
 def _number_or_text(text: str):
@@ -158,9 +156,12 @@ def _command_line(plant_file, effects, excitation, duration, sample_time, noise,
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the steps and of the noise.")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Measurement CSV to write; the truth goes beside it as <name>.truth.yaml.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {output, truth, samples, duration_s, input, signals, hidden, wall_s} as one "
+                   "JSON object on stdout.")
 def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration: float | None,
           sample_time: float, noise: tuple[str, ...], signals: tuple[str, ...], seed: int,
-          output: Path) -> None:
+          output: Path, as_json: bool) -> None:
     """Synthesize a measurement: PLANT.yaml with hidden effects, driven open loop.
 
     The simulated record (SPEC section 3 columns: time_s, the commanded input,
@@ -168,6 +169,7 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
     start) goes to OUTPUT, and what was hidden (effects and parameters,
     noise, seed, excitation, plant file) to OUTPUT with the suffix
     .truth.yaml. Both are written atomically, and neither if anything fails.
+    Exit status 1 when the solver cannot finish the record, 2 for bad input.
     """
     import yaml
 
@@ -238,5 +240,13 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
     wall = time.perf_counter() - start
     hid = "; ".join(f"{e.name}(" + ", ".join(f"{k}={v}" for k, v in e.values.items()) + ")"
                     for e in hidden) or "none"
-    click.echo(f"wrote {output} ({len(t)} samples, {t[-1] - t[0]:g} s, {data.input_name} + "
+    summary = (f"wrote {output} ({len(t)} samples, {t[-1] - t[0]:g} s, {data.input_name} + "
                f"{', '.join(sigs)}; hidden: {hid}) and {truth_path.name} in {wall:.2f} s")
+    if as_json:
+        echo_json({"output": str(output), "truth": str(truth_path), "samples": len(t),
+                   "duration_s": float(t[-1] - t[0]), "input": data.input_name, "signals": list(sigs),
+                   "hidden": [{"effect": e.name, **e.values} for e in hidden], "seed": seed,
+                   "wall_s": wall})
+        console.print(summary, highlight=False)
+    else:
+        click.echo(summary)

@@ -50,9 +50,7 @@ class RunRecord:
 def load_profiles(exp: Experiment) -> dict[str, Profile]:
     """Every profile the experiment names, loaded before any solving (and
     scaled by the experiment's ``profile_scale``)."""
-    search = exp.base_dir.parent / "profiles"
-    profiles = {name: load_profile(name, search if search.is_dir() else exp.base_dir)
-                for name in exp.profiles}
+    profiles = {name: load_profile(name, exp.base_dir) for name in exp.profiles}
     if exp.profile_scale != 1.0:
         profiles = {name: prof.scaled(exp.profile_scale) for name, prof in profiles.items()}
     return profiles
@@ -105,3 +103,25 @@ def run_experiment(exp: Experiment, on_done: Callable[[RunRecord], None] | None 
             for fut in as_completed(futures):
                 finish(futures[fut], *fut.result())
     return records
+
+
+def retrace(exp: Experiment, records: list[RunRecord], output_dt_s: float | None = None) -> list[RunRecord]:
+    """The runs of ``records`` solved again, in this process, with their trace sampled
+    every ``output_dt_s`` s (default: the experiment's ``solver.output_dt_s``).
+
+    For a figure of a few runs of an experiment that was solved for its scores only
+    (``keep_traces=False`` keeps two samples per run).  Same plant, controller,
+    profile and solver settings, so the scores are the ones already reported: the
+    output grid is interpolated from the steps, it does not choose them.
+    """
+    profiles = load_profiles(exp)
+    solver = exp.solver if output_dt_s is None else replace(exp.solver, output_dt_s=output_dt_s)
+    out = []
+    for rec in records:
+        res, wall = _solve((exp.plant, rec.controller, profiles[rec.profile].segments(), exp.duration_s, solver,
+                            exp.initial_delta))
+        res.label = rec.label
+        if not res.ok:
+            res.meta["message"] = failure_message(res, exp.plant.name)
+        out.append(RunRecord(rec.profile, rec.controller, res, wall))
+    return out

@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import layout as L
+from .interrupts import is_interrupt
 from .control.controllers import Controller, pack_controller
 from .plant.components import Plant
 from .plant.pack import pack_plant, rest_state, tolerance_scales
@@ -31,29 +32,137 @@ small reversals of a bang-bang run with the shift at rtol 1e-6: 4 impacts
 against 95, and an IAE 0.5 % off the converged one)."""
 
 
-class Segments(NamedTuple):
-    """Piecewise-linear input: on ``[t[k], t[k+1])`` the value is ``v[k] + s[k] (t - t[k])``.
-
-    SI units: s, and rad (set point) or V / N m / N (open-loop input).  ``d``:
-    for a sampled controller, a disturbance (V) added to its output after the
-    saturation, one value per segment (None = none).
-    """
+class _SegmentFields(NamedTuple):
     t: np.ndarray
     v: np.ndarray
     s: np.ndarray
     d: np.ndarray | None = None
 
 
+class Segments(_SegmentFields):
+    """Piecewise-linear input: on ``[t[k], t[k+1])`` the value is ``v[k] + s[k] (t - t[k])``.
+
+    The last segment lasts until the end of the run.  SI units.  The arrays
+    are checked when the segments are made (the compiled core would read past
+    a short array, skip a reversed time and run on a NaN).
+
+    Parameters
+    ----------
+    t : array_like
+        Start of each segment, s: starts at 0, strictly increasing.
+    v : array_like
+        Value at each segment's start: the set point, rad, or for an open
+        controller the input, V (N m or N for a torque or force drive).
+    s : array_like
+        Slope of each segment, rad/s (or V/s, N m/s, N/s).
+    d : array_like or None
+        For a sampled controller, a disturbance added to its output after the
+        saturation, V, one value per segment; None: none.
+
+    Raises
+    ------
+    ConfigError
+        Naming the array, the first bad element and the unit: arrays of
+        different lengths, an empty ``t``, ``t`` not starting at 0 or not
+        strictly increasing, a NaN or infinite value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gearbench import Segments
+    >>> seg = Segments([0.0, 1.0], np.radians([0.0, 10.0]), [0.0, 0.0])  # a 10 deg step at 1 s
+    >>> seg.t
+    array([0., 1.])
+    >>> Segments([0.0, 2.0, 1.0], [0.0, 0.1, 0.2], [0.0, 0.0, 0.0])
+    Traceback (most recent call last):
+    ...
+    gearbench.experiment.files.ConfigError: Segments: t must increase strictly (s): t[2] = 1 s comes after t[1] = 2 s
+    """
+    __slots__ = ()
+
+    def __new__(cls, t, v, s, d=None):
+        arrays, problems = segment_problems(t, v, s, d)
+        if problems:
+            from .experiment.files import ConfigError  # that module imports this one
+            raise ConfigError("Segments", problems)
+        return super().__new__(cls, *arrays)
+
+
+_SEGMENT_UNITS = {"t": "s", "v": "rad, or V (N m, N) for an open controller",
+                  "s": "rad/s, or V/s (N m/s, N/s) for an open controller", "d": "V"}
+
+
+def segment_problems(t, v, s, d=None) -> tuple[list, list[str]]:
+    """The four arrays as float arrays (``d`` may stay None), and every problem found."""
+    arrays, problems = [], []
+    for name, x in zip("tvsd", (t, v, s, d)):
+        if x is None and name == "d":
+            arrays.append(None)
+            continue
+        unit = _SEGMENT_UNITS[name]
+        try:
+            a = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            problems.append(f"{name} must be a one-dimensional array of numbers in {unit}, "
+                            f"got a {type(x).__name__}")
+            arrays.append(None)
+            continue
+        if a.ndim != 1 or a.size == 0:
+            problems.append(f"{name} must be a non-empty one-dimensional array in {unit}, "
+                            f"got shape {a.shape}")
+            arrays.append(None)
+            continue
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            more = f" ({bad.size} bad in all)" if bad.size > 1 else ""
+            problems.append(f"{name}[{bad[0]}] is {a[bad[0]]}: every value must be a finite number "
+                            f"in {unit}{more}")
+        arrays.append(a)
+    t = arrays[0]
+    for name, a in zip("vsd", arrays[1:]):
+        if a is not None and t is not None and a.size != t.size:
+            problems.append(f"{name} has {a.size} values, t has {t.size}: one per segment")
+    if t is not None and np.all(np.isfinite(t)):
+        if t[0] != 0.0:
+            problems.append(f"t[0] must be 0 s (a run starts at t = 0), got {t[0]:g} s")
+        back = np.flatnonzero(np.diff(t) <= 0.0)
+        if back.size:
+            k = int(back[0]) + 1
+            problems.append(f"t must increase strictly (s): t[{k}] = {t[k]:g} s comes after "
+                            f"t[{k - 1}] = {t[k - 1]:g} s")
+    return arrays, problems
+
+
 @dataclass(frozen=True)
 class SolverOptions:
-    """method: ``rodas4`` (default: L-stable Rosenbrock, fourth order),
-    ``rosenbrock23`` (alias ``ode23s``, the thesis's stiff method, second
-    order) or ``dopri5`` (alias ``ode45``, explicit); rtol: relative tolerance (absolute tolerances
-    follow from each state's typical scale); max_step_s: largest step, s (events
-    inside a step are caught at the interpolant's extrema; the cap is a backstop);
-    output_dt_s: sampling interval of the returned trace, s;
-    friction_speed_rel: the speed below which friction's sign is regularised
-    (``tanh(w/eps)``), relative to each shaft's typical speed."""
+    """How a run is solved; :func:`simulate` checks it as an experiment's ``solver:`` section.
+
+    Parameters
+    ----------
+    method : str
+        ``rodas4`` (default: L-stable Rosenbrock, fourth order),
+        ``rosenbrock23`` (alias ``ode23s``, the thesis's stiff method, second
+        order) or ``dopri5`` (alias ``ode45``, explicit).
+    rtol : float
+        Relative tolerance, between 0 and 1 (absolute tolerances follow from
+        each state's typical scale).
+    max_step_s : float
+        Largest step, s (events inside a step are caught at the
+        interpolant's extrema; the cap is a backstop).
+    max_steps : int
+        Step budget of one run.
+    output_dt_s : float
+        Sampling interval of the returned trace, s.
+    friction_speed_rel : float
+        The speed below which friction's sign is regularised
+        (``tanh(w/eps)``), relative to each shaft's typical speed.
+
+    Examples
+    --------
+    >>> from gearbench import SolverOptions
+    >>> SolverOptions(rtol=1e-7).method
+    'rodas4'
+    """
     method: str = "rodas4"
     rtol: float = 1e-6
     max_step_s: float = 1e-2
@@ -148,13 +257,59 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
     ``delta0`` places the mesh inside its clearance at the start (rad, 0 =
     centred).  A failed run comes back with ``ok == False`` and its status,
     or raises :class:`SolverError` naming the run, the time and the likely
-    cause when ``raise_on_failure``.
+    cause when ``raise_on_failure``.  The arguments are checked first: a
+    :class:`~gearbench.experiment.files.ConfigError` names each bad one and its unit.
     """
+    problems = run_problems(plant, controller, inputs, t_end, delta0, options)
+    if problems:
+        from .experiment.files import ConfigError  # that module imports this one
+        raise ConfigError("simulate", problems)
     run = simulate_packed(pack(plant, controller), tolerance_scales(plant), inputs, t_end,
                           rest_state(plant, delta0), options, label)
-    if raise_on_failure and not run.ok:
-        raise SolverError(failure_message(run, plant.name))
+    if not run.ok:
+        # kept with the run (it may come back from a worker) so its message can name a stiff mesh
+        run.meta["mesh"] = mesh_figures(plant)
+        if raise_on_failure:
+            raise SolverError(failure_message(run, plant.name, plant))
     return run
+
+
+MAX_SAMPLES = 10_000_000
+"""Most samples a returned trace may hold (720 MB of outputs); more is refused, not allocated."""
+
+
+def run_problems(plant, controller, inputs, t_end, delta0=0.0,
+                 options: SolverOptions = SolverOptions()) -> list[str]:
+    """What is wrong with :func:`simulate`'s arguments (empty when nothing is)."""
+    from .experiment.schema import Number, show  # gearbench.experiment imports this module
+    problems = []
+    for name, value, cls in (("plant", plant, Plant), ("controller", controller, Controller),
+                             ("inputs", inputs, Segments)):
+        if not isinstance(value, cls):
+            problems.append(f"{name} must be a {cls.__name__}, got {show(value)}")
+    t_end_ok = Number("s").check(t_end, "t_end", problems) is not None
+    if isinstance(options, SolverOptions):
+        from .experiment.files import SOLVER
+        before = len(problems)
+        for name, spec in {**SOLVER, "friction_speed_rel": Number("")}.items():
+            spec.check(getattr(options, name), f"options.{name}", problems)
+        if t_end_ok and len(problems) == before and t_end / options.output_dt_s > MAX_SAMPLES:
+            problems.append(f"t_end = {t_end:g} s sampled every options.output_dt_s = {options.output_dt_s:g} s "
+                            f"is {t_end / options.output_dt_s:.3g} samples, more than {MAX_SAMPLES:.0e} "
+                            f"(x {L.N_OUT} outputs x 8 bytes); raise output_dt_s or shorten the run")
+    else:
+        problems.append(f"options must be a SolverOptions, got {show(options)}")
+    if isinstance(plant, Plant):
+        h_deg = plant.gear.backlash_deg / 2.0
+        if Number("rad", low=None).check(delta0, "delta0", problems) is not None \
+                and abs(delta0) > math.radians(h_deg):
+            problems.append(f"delta0 must lie within +-{math.radians(h_deg):.6g} rad (half of "
+                            f"gear.backlash_deg = {2 * h_deg:g} deg), got {delta0!r}")
+        shift = getattr(controller, "shift_deg", None)
+        if shift is not None and shift > 2 * h_deg:
+            problems.append(f"controller.shift_deg must lie between 0 and the clearance "
+                            f"gear.backlash_deg = {2 * h_deg:g} deg, got {shift!r}")
+    return problems
 
 
 def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: float,
@@ -178,25 +333,103 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     else:
         t_out = np.ascontiguousarray(output_times, dtype=float)
     d = np.zeros(len(inputs.t)) if inputs.d is None else inputs.d
-    outputs, stats, x_end, seg_u = integrate(
-        p, np.ascontiguousarray(inputs.t, dtype=float),
-        np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
-        np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out, float(options.rtol),
-        options.rtol * scales, float(options.max_step_s),
-        METHODS[options.method], int(options.max_steps))
+    try:
+        outputs, stats, x_end, seg_u = integrate(
+            p, np.ascontiguousarray(inputs.t, dtype=float),
+            np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
+            np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out,
+            float(options.rtol), options.rtol * scales, float(options.max_step_s),
+            METHODS[options.method], int(options.max_steps))
+    except SystemError as exc:
+        # a Ctrl-C inside the compiled core surfaces as a SystemError; give callers the interrupt
+        # itself, so that no `except Exception` records it as a failed run
+        if is_interrupt(exc):
+            raise KeyboardInterrupt from exc
+        raise
     return RunResult(t_out, outputs, stats, float(t_end), label,
-                     {"x_end": x_end, "segment_input": seg_u})
+                     {"x_end": x_end, "segment_input": seg_u, "method": options.method})
 
 
-def failure_message(run: RunResult, name: str) -> str:
-    """Which run failed, where in time, and the likely cause."""
+STIFF_MESH_HZ = 1e6
+"""An engaged mesh mode above this frequency is called very stiff when a run fails.
+Gear meshes ring at kHz to a few hundred kHz (the thesis's ~110 kHz); far above, the
+mesh is as good as rigid for the load's motion, yet it still sets the solver's step
+where the teeth strike and rattle."""
+
+MESH_BOUND_PERIODS = 10.0
+"""An explicit method whose mean step stayed under this many mesh periods was held
+to the mesh's period by its stability limit (a stiff method is not)."""
+
+
+def mesh_figures(plant: Plant) -> tuple[float, float | None]:
+    """``(k, f)``: the mesh stiffness (N m/rad) and the engaged mesh mode's frequency (Hz).
+
+    ``f`` is the damped oscillatory mode in which the mesh deflection takes part most
+    (:func:`gearbench.plant.linear.plant_info`); for an overdamped mesh, the undamped
+    ``sqrt(k (1/Jl + 1/(Jm N^2))) / 2 pi`` (``Jm`` with the pinion, ``Jl`` the output
+    inertia); None if neither can be computed.
+    """
+    from .plant.linear import plant_info  # late: scipy's eigen-solver, needed for failed runs only
+
+    k = float(plant.gear.mesh_stiffness)
+    try:
+        f = plant_info(plant)["mesh_frequency_hz"]
+        if f is None:
+            jm = plant.motor.inertia + (plant.shaft.pinion_inertia if plant.shaft is not None else 0.0)
+            f = math.sqrt(k * (1.0 / plant.output_inertia + 1.0 / (jm * plant.gear.ratio ** 2))) / (2 * math.pi)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        f = None
+    return k, (float(f) if f is not None and math.isfinite(f) and f > 0 else None)
+
+
+def _stiff_mesh_hint(run: RunResult, plant: Plant | None) -> str | None:
+    """The cause of a run whose step collapsed against a stiff mesh, or None if it was not that.
+
+    The mean accepted step ``h = t_fail / steps`` (s) is set against the mesh period
+    ``1 / f``: a mesh above :data:`STIFF_MESH_HZ` is named whatever the method; below it, an
+    explicit method whose ``h f`` stayed under :data:`MESH_BOUND_PERIODS` was held by the mesh.
+    """
+    k, f = mesh_figures(plant) if plant is not None else run.meta.get("mesh", (None, None))
+    if not f:
+        return None
+    t, steps = float(run.stats[L.S_T_FAIL]), max(int(run.stats[L.S_STEPS]), 1)
+    h = t / steps
+    method = run.meta.get("method", "")
+    explicit = METHODS.get(method) == L.METHOD_DOPRI
+    seen = (f"the solver's steps averaged {h:.2g} s ({h * f:.3g} mesh periods) over {steps} steps "
+            f"and {run.impacts} tooth impacts to t = {t:.6g} s")
+    if f >= STIFF_MESH_HZ:
+        fix = ("solve with the stiff method rodas4 (the default; the explicit "
+               f"{method} must step inside every mesh period), or lower gear.mesh_stiffness"
+               if explicit else "lower gear.mesh_stiffness")
+        return (f"the mesh is very stiff (k = {k:.3g} N m/rad, f = {f:.3g} Hz): {seen}; {fix} to the pair's "
+                f"real stiffness (gear meshes ring at kHz to a few 100 kHz; `gearbench info` prints f), "
+                f"or raise solver.max_steps")
+    if explicit and h * f < MESH_BOUND_PERIODS:
+        return (f"the mesh (k = {k:.3g} N m/rad, f = {f:.3g} Hz) is too stiff for the explicit method "
+                f"{method}, whose steps must stay inside the mesh period ({1 / f:.2g} s): {seen}; "
+                f"solve with rodas4 (the default) or ode23s")
+    return None
+
+
+def failure_message(run: RunResult, name: str, plant: Plant | None = None) -> str:
+    """Which run failed, where in time, and the likely cause.
+
+    ``plant`` (or, for a run from :func:`simulate`, ``run.meta["mesh"]``) lets the
+    message name a stiff mesh, with its stiffness (N m/rad) and frequency (Hz), when
+    the step size collapsed against it (:func:`_stiff_mesh_hint`).
+    """
     t = run.stats[L.S_T_FAIL]
-    hint = {
+    status = int(run.stats[L.S_STATUS])
+    hint = None
+    if status in (L.STATUS_STEP_TOO_SMALL, L.STATUS_MAX_STEPS):
+        hint = _stiff_mesh_hint(run, plant)
+    hint = hint or {
         L.STATUS_STEP_TOO_SMALL: "the plant is probably unphysical or far too stiff for the tolerance "
                                  "(check mesh_stiffness/mesh_damping against the inertias, and the gains)",
         L.STATUS_MAX_STEPS: "a chattering mode switch (bang-bang band or set-point shift) or an unstable gain; "
                             "widen the band, lower the gain, or raise max_steps",
         L.STATUS_NONFINITE: "the state blew up: an unstable gain or a non-physical parameter",
-    }.get(int(run.stats[L.S_STATUS]), "")
+    }.get(status, "")
     name = run.label or name
     return f"run {name!r} failed at t = {t:.6g} s: {run.status}; likely cause: {hint}"

@@ -7,6 +7,7 @@ test can switch the motor electrics off (torque input) and zero the damping.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +17,11 @@ from gearbench.control.controllers import Controller
 from gearbench.plant.components import Gear, Load, Motor, Plant
 from gearbench.plant.pack import rest_state, tolerance_scales
 from gearbench.simulate import Segments, SolverOptions, pack, simulate_packed
+
+REPO = Path(__file__).resolve().parents[1]
+DATA = REPO / "data"
+"""The repository's data (Modelica references, EMPS records, practice cases): tests read only
+inside the checkout."""
 
 
 def small_plant(contact_law: str = "dubowsky", **gear_overrides) -> Plant:

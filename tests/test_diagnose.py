@@ -15,19 +15,25 @@ longer pays on its own and the ladder ends with Stribeck + viscous friction at
 """
 from __future__ import annotations
 
+import re
 
 import pytest
 
 from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
+from gearbench.identify.evidence import SIGNATURES
 from gearbench.identify.replay import Replay
 from gearbench.identify.synth import excitation, synthesize
 from gearbench.plant.effects import REGISTRY, AddedEffect
-from gearbench.studies.hidden_effects import HIDDEN, PLANTS, record
+from studies.hidden_effects import HIDDEN, PLANTS, record
 
 
 def test_every_effect_has_a_case():
     assert set(HIDDEN) == set(REGISTRY)
+
+
+def test_every_effect_declares_a_signature_the_explanations_know():
+    assert {name: e.signature in SIGNATURES for name, e in REGISTRY.items()} == {n: True for n in REGISTRY}
 
 
 @pytest.mark.parametrize("name", sorted(HIDDEN))
@@ -41,6 +47,14 @@ def test_hidden_effect_is_found(name):
     step = d.ladder[0]
     assert step.params[main] == pytest.approx(values[main], rel=0.2), step.params
     assert step.error <= 1.5 * d.noise_floor, (step.error, d.noise_floor)
+    # the explanation names this effect's signature and measures it on the residual
+    signature = REGISTRY[name].signature
+    assert f"its signature is {SIGNATURES[signature][1]}".lower() in step.explanation.lower(), step.explanation
+    corr = float(re.search(r"correlation (?:with it is )?(\d\.\d\d)", step.explanation).group(1))
+    if name != "shaft_compliance":  # its residual is 1.2x the noise floor: nothing left to correlate
+        assert corr >= 0.9, step.explanation
+    if SIGNATURES[signature][0] == "torque":
+        assert "the strongest of the" in step.explanation, step.explanation
 
 
 def test_no_hidden_effect_no_verdict():
@@ -73,3 +87,61 @@ def test_leadscrew_carriage_friction_is_found():
     assert d.verdict == "coulomb_friction" and d.ladder[0].options == {"location": "carriage"}
     assert d.ladder[0].params["force"] == pytest.approx(30.0, rel=0.2)
     assert d.unit == "mm" and d.ladder[0].error <= 1.5 * d.noise_floor
+
+
+def test_json_candidates_carry_the_contract_keys_and_failures_say_why():
+    from gearbench.identify.diagnose import RANKING, Candidate, Diagnosis, Tried, _rank
+    from gearbench.identify.fit import FitResult
+
+    plant = load_plant(PLANTS / "bench_rig.yaml")
+
+    def ok(err, rss):
+        return FitResult(plant, {}, {}, err, rss, 1000, 1, True, "converged", 5)
+
+    tried = _rank([Tried(Candidate("bias_torque", {}), ok(2.0, 900.0), {"torque": 0.1}, {"torque": 0.01}),
+                   Tried(Candidate("sensor_delay", {"signal": "load_angle_deg"}), None,
+                         note="could not be simulated: step budget exhausted"),
+                   Tried(Candidate("load_spring", {}), ok(1.0, 400.0), {"stiffness": 2.0}, {"stiffness": 0.1})])
+    base = ok(3.0, 1e4)
+    j = Diagnosis(3.0, 0.01, "deg", "load_angle_deg", tried, None, [], "x", plant, base, plant, 1.0).to_json()
+    assert j["ranking"] == RANKING and "BIC" in RANKING
+    assert [c["effect"] for c in j["candidates"]] == ["load_spring", "bias_torque", "sensor_delay"]
+    bics = [c["bic"] for c in j["candidates"] if c["bic"] is not None]
+    assert bics == sorted(bics)
+    for c in j["candidates"]:
+        assert {"effect", "options", "params", "error", "bic", "status"} <= set(c)
+    failed = j["candidates"][-1]
+    assert failed["error"] is None and failed["bic"] is None and failed["status"] == "failed"
+    assert "step budget" in failed["message"] and failed["options"] == {"signal": "load_angle_deg"}
+
+
+def test_an_effect_that_no_longer_pays_is_taken_out():
+    """Stepwise backwards: a record with viscous friction only, and a ladder that took Coulomb
+    friction first and viscous friction second.  Refitted together the Coulomb torque has
+    nothing left to explain, so ``_prune`` takes it out and keeps the viscous term."""
+    from gearbench.identify.diagnose import _accepts, _prune
+    from gearbench.identify.fit import Free, Scorer, fit
+
+    plant = load_plant(PLANTS / "bench_rig.yaml")
+    data = record(plant, [AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.05})], seed=11)
+    replay = Replay(data)
+    scorer = Scorer(replay)
+    both = plant.with_effects(AddedEffect("coulomb_friction", {"location": "load", "torque": 0.3}),
+                              AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.03}))
+    res = fit(replay, both, Free.effect(both, 0) + Free.effect(both, 1), scorer)
+    assert res.converged
+    removed = _prune(replay, scorer, res, 0, ())
+    assert [(e.name, e.values["location"]) for e, _, _ in removed] == [("coulomb_friction", "load")]
+    gone, without, gain = removed[0]
+    assert not _accepts(without, res) and gain < 10.0
+    assert [e.name for e in without.plant.effects] == ["viscous_friction"]
+    assert without.plant.effects[0].values["coefficient"] == pytest.approx(0.05, rel=0.05)
+    assert without.error <= 1.5 * scorer.noise_floor
+    # effects that each pay stay: a record with both Coulomb friction and a spring
+    hidden = [AddedEffect("coulomb_friction", {"location": "load", "torque": 0.6}),
+              AddedEffect("load_spring", {"stiffness": 3.0, "rest_angle_deg": -10.0})]
+    replay2 = Replay(record(plant, hidden, seed=7))
+    scorer2 = Scorer(replay2)
+    two = plant.with_effects(*hidden)
+    res2 = fit(replay2, two, Free.effect(two, 0) + Free.effect(two, 1), scorer2)
+    assert res2.converged and _prune(replay2, scorer2, res2, 0, ()) == []

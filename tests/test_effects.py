@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from conftest import DATA, REPO
 from gearbench import layout as L
 from gearbench.experiment.files import load_plant
 from gearbench.experiment.writer import plant_to_yaml
@@ -18,9 +19,8 @@ from gearbench.plant.effects import REGISTRY, AddedEffect
 from gearbench.plant.pack import pack_plant, rest_state, tolerance_scales
 from gearbench.simulate import Segments, SolverOptions, simulate_packed
 
-ANCHOR = Path(__file__).resolve().parents[2] / "shared" / "anchors" / "modelica" / \
-    "Translational_Examples_Friction.csv"
-PLANTS = Path(__file__).resolve().parents[1] / "experiments" / "plants"
+ANCHOR = DATA / "modelica" / "Translational_Examples_Friction.csv"
+PLANTS = REPO / "experiments" / "plants"
 
 
 def body(*effects, inertia=1.0) -> Plant:
@@ -134,8 +134,6 @@ def test_friction_regularisation_against_modelica_stick_slip():
     the same friction from a 50-point table and differs from stop1 by 0.038 m.)  Ours: the same as a
     torque-driven body (1 rad = 1 m), Stribeck T_s = 15, T_c = 5, w_s = 0.5 m/s.
     The error of the tanh regularisation falls as its speed shrinks."""
-    if not ANCHOR.exists():
-        pytest.skip(f"Modelica anchor missing: {ANCHOR}")
     ref = pd.read_csv(ANCHOR).drop_duplicates("time", keep="last")
     plant = body(AddedEffect("stribeck_friction", {"location": "motor", "static_torque": 15.0,
                                                    "coulomb_torque": 5.0, "stribeck_speed": 0.5}),

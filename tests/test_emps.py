@@ -2,32 +2,67 @@
 
 The published IDIM-LS figures are reproduced to every printed digit.
 """
+import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+import scipy.io
 from click.testing import CliRunner
 
+from conftest import DATA
 from gearbench.cli import main
 from gearbench.measure.emps import (EMPS_CITATION, EMPS_CONTROLLER, EMPSFormatError, read_emps,
                                     to_measurement_frame)
 from gearbench.measure.idim import evaluate, idim_ladder, idim_ls
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "anchors" / "data" / "emps"
+MATS = DATA / "emps"
 FILES = {
     "train_mat": "DATA_EMPS.mat",
     "test_mat": "DATA_EMPS_PULSES.mat",
     "train_csv": "emps_train_DATA_EMPS.csv",
     "test_csv": "emps_test_DATA_EMPS_PULSES.csv",
 }
-missing = [f for f in FILES.values() if not (DATA / f).is_file()]
-pytestmark = pytest.mark.skipif(bool(missing), reason=f"EMPS data not found in {DATA}: {missing}")
+
+
+def write_csv_copy(mat: Path, out_dir: Path, prefix: str) -> Path:
+    """The CSV copy of an EMPS ``.mat`` (``t_s, qm_m, qg_m, vir_V, force_N[, pulse_V]``, 10
+    significant digits, ``force_N = gtau vir_V``) that ``read_emps`` also reads.  Written the way
+    the copies beside the benchmark's files were made: for both records it reproduces them byte
+    for byte (checked when the data were moved into the repository)."""
+    m = scipy.io.loadmat(mat)
+    cols = {"t_s": m["t"].ravel(), "qm_m": m["qm"].ravel(), "qg_m": m["qg"].ravel(),
+            "vir_V": m["vir"].ravel()}
+    cols["force_N"] = float(np.squeeze(m["gtau"])) * cols["vir_V"]
+    if "pulses_N" in m:
+        cols["pulse_V"] = m["pulses_N"].ravel().astype(float)
+    out = out_dir / f"{prefix}_{mat.stem}.csv"
+    pd.DataFrame(cols).to_csv(out, index=False, float_format="%.10g")
+    return out
 
 
 @pytest.fixture(scope="module")
-def rec():
-    return {key: read_emps(DATA / name) for key, name in FILES.items()}
+def paths(tmp_path_factory) -> dict:
+    """The two ``.mat`` files from the repository and their CSV copies (with ``constants.json``)
+    written to a temporary folder."""
+    out = tmp_path_factory.mktemp("emps_csv")
+    constants = {}
+    for run, prefix in (("train", "emps_train"), ("test", "emps_test")):
+        mat = MATS / FILES[f"{run}_mat"]
+        write_csv_copy(mat, out, prefix)
+        m = scipy.io.loadmat(mat)
+        constants[mat.name] = {"gtau_N_per_V": float(np.squeeze(m["gtau"])),
+                               "kp_per_s": float(np.squeeze(m["kp"])),
+                               "kv_V_per_m_per_s": float(np.squeeze(m["kv"])),
+                               "n_samples": int(m["t"].size), "Ts_s": 0.001}
+    (out / "constants.json").write_text(json.dumps(constants, indent=1))
+    return {key: (MATS if key.endswith("_mat") else out) / name for key, name in FILES.items()}
+
+
+@pytest.fixture(scope="module")
+def rec(paths):
+    return {key: read_emps(path) for key, path in paths.items()}
 
 
 @pytest.fixture(scope="module")
@@ -82,9 +117,7 @@ def test_measurement_frame(rec, run):
 
 
 def test_bad_files_name_the_variable(tmp_path):
-    import scipy.io
-
-    good = scipy.io.loadmat(DATA / FILES["train_mat"])
+    good = scipy.io.loadmat(MATS / FILES["train_mat"])
     partial = {k: v for k, v in good.items() if not k.startswith("__") and k != "qg"}
     scipy.io.savemat(tmp_path / "noqg.mat", partial)
     with pytest.raises(EMPSFormatError, match="'qg' missing"):
@@ -145,9 +178,9 @@ def test_ladder(rec):
 
 
 @pytest.mark.parametrize("name", ["test_mat", "test_csv"])
-def test_cli_import_emps(tmp_path, rec, name):
+def test_cli_import_emps(tmp_path, paths, rec, name):
     out = tmp_path / "emps.csv"
-    res = CliRunner().invoke(main, ["import", "emps", str(DATA / FILES[name]), "-o", str(out)])
+    res = CliRunner().invoke(main, ["import", "emps", str(paths[name]), "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert "24841 rows" in res.output and "hal-02178709" in res.output
     back = pd.read_csv(out)
@@ -160,7 +193,7 @@ def test_cli_import_emps(tmp_path, rec, name):
 
 def test_cli_keeps_the_encoder_grid(tmp_path, rec):
     out = tmp_path / "train.csv"
-    res = CliRunner().invoke(main, ["import", "emps", str(DATA / FILES["train_mat"]), "-o", str(out)])
+    res = CliRunner().invoke(main, ["import", "emps", str(MATS / FILES["train_mat"]), "-o", str(out)])
     assert res.exit_code == 0, res.output
     steps = pd.read_csv(out)["motor_position_mm"].to_numpy() / 5e-5  # 5e-8 m counts
     assert np.abs(steps - np.round(steps)).max() < 1e-6

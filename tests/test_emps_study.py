@@ -1,4 +1,4 @@
-"""The EMPS study (gearbench.studies.emps) on the real benchmark data.
+"""The EMPS study (studies/emps.py) on the real benchmark data (data/emps/, in the repository).
 
 Data: A. Janot, M. Gautier, M. Brunot, "Data Set and Reference Models of EMPS", Workshop on
 Nonlinear System Identification Benchmarks, Eindhoven, April 2019, HAL hal-02178709.
@@ -9,15 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from gearbench.studies import emps as E
+from click.testing import CliRunner
 
-try:
-    E.data_files()
-    MISSING = ""
-except FileNotFoundError as exc:
-    MISSING = str(exc)
-
-needs_data = pytest.mark.skipif(bool(MISSING), reason=f"EMPS data missing: {MISSING}")
+from gearbench.measure.idim import kinematics
+from studies import emps as E
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +35,6 @@ def asym(runs, ctrl, ladder):
     return E.fit_asymmetric(runs, ctrl, ladder["params"])
 
 
-@needs_data
 def test_paper_ladder_falls_to_the_papers_error_and_parameters(ladder):
     rows = ladder["rows"]
     assert rows[0]["effect"] == "bare"
@@ -53,13 +47,11 @@ def test_paper_ladder_falls_to_the_papers_error_and_parameters(ladder):
         assert abs(row["rel_diff_pct"]) <= E.PARAM_TOLERANCE_PCT, row
 
 
-@needs_data
 def test_fitted_model_validates_within_the_papers_error(runs, ctrl, ladder):
     err = E.score(ladder["plant"], runs.validation, ctrl)
     assert err <= E.PAPER_CLOSED_LOOP["validation"]["force"]         # 8.94 %
 
 
-@needs_data
 def test_asymmetric_friction_lowers_the_training_error(ladder, asym):
     assert asym["converged"]
     assert asym["train_force_error_pct"] < ladder["rows"][-1]["train_force_error_pct"]
@@ -98,7 +90,7 @@ def test_compliance_plant_keeps_the_moving_mass():
 def test_kinematics_of_a_parabola():
     ts = 1e-3
     t = np.arange(2000) * ts
-    q, v, a = E.kinematics(0.5 * 2.0 * t ** 2 + 0.1 * t, ts)
+    q, v, a = kinematics(0.5 * 2.0 * t ** 2 + 0.1 * t, ts)
     inner = slice(100, -100)
     np.testing.assert_allclose(v[inner], 2.0 * t[inner] + 0.1, rtol=1e-6)
     np.testing.assert_allclose(a[inner], 2.0, rtol=1e-6)
@@ -109,5 +101,6 @@ def test_missing_data_is_a_clear_error(tmp_path):
         E.data_files(tmp_path / "nowhere")
     with pytest.raises(FileNotFoundError, match="DATA_EMPS.mat"):
         E.data_files(tmp_path)
-    assert E.main(["--results", str(tmp_path / "r"), "--data-dir", str(tmp_path / "nowhere")]) == 2
+    res = CliRunner().invoke(E.main, ["--results", str(tmp_path / "r"), "--data-dir", str(tmp_path / "nowhere")])
+    assert res.exit_code == 2 and "--data-dir" in res.output
     assert not (tmp_path / "r").exists()

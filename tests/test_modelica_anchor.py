@@ -2,7 +2,7 @@
 independent scipy integration of the same one-degree-of-freedom impact pair.
 
 Modelica.Mechanics.Rotational.Examples.Backlash (MSL 4.0, Dymola/DASSL, tolerance
-1e-6; see ../shared/anchors/modelica/README.md): an inertia J = 5 kg m^2 tied to a
+1e-6; see data/modelica/README.md): an inertia J = 5 kg m^2 tied to a
 fixed housing by an ElastoBacklash element (c = 2e4 N m/rad, d = 50 N m s/rad,
 total backlash b = pi/4 rad), released from phi = pi/2 rad at rest.
 
@@ -15,17 +15,15 @@ the start is ``delta = -pi/2`` and the load angle should follow ``phi_rel``.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from conftest import free_pair, run_free_pair
+from conftest import DATA, free_pair, run_free_pair
 from gearbench import layout as L
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
-BACKLASH_CSV = SHARED / "anchors" / "modelica" / "Rotational_Examples_Backlash.csv"
+BACKLASH_CSV = DATA / "modelica" / "Rotational_Examples_Backlash.csv"
 
 J, C, D, B = 5.0, 2e4, 50.0, math.pi / 4
 H = B / 2.0
@@ -36,9 +34,6 @@ T_END = 1.0
 @pytest.fixture(scope="module")
 def msl_backlash():
     """(time, phi_rel, w_rel) of elastoBacklash, one row per time stamp."""
-    if not BACKLASH_CSV.is_file():
-        pytest.fail(f"Modelica anchor missing: {BACKLASH_CSV} (the shared folder must sit beside "
-                    f"the repository, at {SHARED}); it is required, not optional")
     with BACKLASH_CSV.open() as fh:
         header = [c.strip('"') for c in fh.readline().strip().split(",")]
     data = np.loadtxt(BACKLASH_CSV, delimiter=",", skiprows=1)

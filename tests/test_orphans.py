@@ -141,6 +141,40 @@ def test_ctrl_c_reaches_the_workers_without_a_traceback(tmp_path):
     assert len({r["key"] for r in kept}) == len(kept) >= 1
 
 
+IDLE_SCRIPT = textwrap.dedent("""
+    import time
+    from gearbench.workers import process_pool
+
+    try:
+        with process_pool(2) as pool:
+            list(pool.map(abs, range(4)))   # the workers are up, and now wait for work
+            print("ready", flush=True)
+            time.sleep(60)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+""")
+
+
+def test_ctrl_c_with_idle_workers_prints_no_worker_traceback(tmp_path):
+    """An idle worker of a plain pool, waiting on its queue, dies of Ctrl-C with a
+    KeyboardInterrupt traceback each; these workers ignore SIGINT and are ended by the parent."""
+    script = tmp_path / "idle.py"
+    script.write_text(IDLE_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(script)], start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=ENV)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        workers = psutil.Process(proc.pid).children(recursive=True)
+        time.sleep(0.3)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        kill_group(proc)
+    assert out.strip() == "interrupted" and proc.returncode == 0
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert not any(alive(w.pid) for w in workers)
+
+
 POOL_SCRIPT = textwrap.dedent("""
     import sys, time
     from gearbench.workers import process_pool

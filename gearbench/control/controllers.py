@@ -83,16 +83,66 @@ KINDS = {"open": L.CTRL_OPEN, "bang_bang": L.CTRL_BANGBANG, "p": L.CTRL_P,
          "pi": L.CTRL_PI, "pid": L.CTRL_PID}
 
 
+SETTINGS = {"open": (), "bang_bang": ("band_deg",), "p": ("kp",), "pi": ("kp", "ki"),
+            "pid": ("kp", "ki", "kd", "derivative_filter_s")}
+"""The settings each kind reads (the others must stay at their defaults)."""
+
+SETTING_UNITS = {"kp": ("V/deg", True), "ki": ("1/s", False), "kd": ("s", False),
+          "derivative_filter_s": ("s", True), "band_deg": ("deg", True)}
+"""Each setting's unit and whether it must be > 0 (else >= 0), as in an experiment file."""
+
+
 @dataclass(frozen=True)
 class Controller:
     """A feedback law on the motor-side angle, with the optional set-point shift.
 
-    kind: ``bang_bang``, ``p``, ``pi``, ``pid`` (or ``open``: no feedback);
-    kp (V/deg), ki (1/s), kd (s), derivative_filter_s (s), band_deg (deg);
-    shift: apply thesis Equation 1; shift_deg: its size (deg), default half
-    the clearance; compensator: one of ``COMPENSATORS`` (see there);
-    ``shift=True`` with
-    ``compensator="none"`` is the thesis shift (the historical spelling).
+    The error is the set point minus the motor angle referred to the output,
+    ``e = r - theta_m/N`` in output degrees, so the gains are in the units of
+    an experiment file's ``controllers`` entries: ``u = Kp e`` (P),
+    ``Kp (e + Ki int e)`` (PI), ``Kp (e + Ki int e + Kd de_f/dt)`` (PID, the
+    derivative filtered with time constant ``Tf``), ``Vmax sign(e)`` outside
+    the dead band (bang-bang); every output saturates at the motor's
+    ``max_voltage``.  Every setting is checked when the controller is made.
+
+    Parameters
+    ----------
+    kind : str
+        ``bang_bang``, ``p``, ``pi``, ``pid``, or ``open`` (no feedback: the
+        input segments are the motor voltage, V).
+    kp : float
+        Proportional gain, V/deg (> 0; ``p``, ``pi``, ``pid``).
+    ki : float
+        Integral gain of ``Kp (e + Ki int e)``, 1/s (>= 0; ``pi``, ``pid``).
+    kd : float
+        Derivative gain of ``Kp (... + Kd de_f/dt)``, s (>= 0; ``pid``).
+    derivative_filter_s : float
+        Time constant ``Tf`` of the derivative filter, s (> 0; ``pid``).
+    band_deg : float
+        Bang-bang dead band, deg: no output while ``|e| <= band_deg/2`` (> 0).
+    shift : bool
+        Apply the set-point shift of thesis Equation 1 (``shift=True`` with
+        ``compensator="none"`` is ``compensator="thesis_shift"``).
+    shift_deg : float or None
+        Size of the shift, deg (>= 0, at most the clearance); None: half the
+        clearance ``gear.backlash_deg / 2``.
+    compensator : str
+        Backlash compensator, one of ``COMPENSATORS`` (see there).
+
+    Raises
+    ------
+    ConfigError
+        Naming every bad setting and its unit; a setting the kind does not
+        read (``ki`` of a P controller) must stay at its default.
+
+    Examples
+    --------
+    >>> from gearbench import Controller
+    >>> Controller("pi", kp=50, ki=0.005).kind
+    'pi'
+    >>> Controller("p", kp=-5)
+    Traceback (most recent call last):
+    ...
+    gearbench.experiment.files.ConfigError: Controller: kp must be a positive number in V/deg, got -5
     """
     kind: str
     kp: float = 0.0
@@ -105,9 +155,37 @@ class Controller:
     compensator: str = "none"
 
     def __post_init__(self):
-        if self.compensator not in COMPENSATORS:
-            raise ValueError(f"compensator must be one of {', '.join(COMPENSATORS)}, "
-                             f"got {self.compensator!r}")
+        problems = self.problems()
+        if problems:
+            # imported here: gearbench.experiment.files imports this module
+            from ..experiment.files import ConfigError
+            raise ConfigError("Controller", problems)
+
+    def problems(self) -> list[str]:
+        """Every bad setting, one text each naming it and its unit (empty when valid)."""
+        # imported here: gearbench.experiment imports this module (its schema has no such import)
+        from ..experiment.schema import Choice, Number, is_number, show
+        problems: list[str] = []
+        if Choice(tuple(KINDS)).check(self.kind, "kind", problems) is None:
+            return problems
+        reads = SETTINGS[self.kind]
+        defaults = {f: Controller.__dataclass_fields__[f].default for f in SETTING_UNITS}
+        for name, (unit, positive) in SETTING_UNITS.items():
+            value = getattr(self, name)
+            if name in reads:
+                Number(unit, low=0.0, low_strict=positive).check(value, name, problems)
+            elif not (is_number(value) and value == defaults[name]):
+                problems.append(f"{name} does not apply to a {self.kind} controller (it reads "
+                                f"{', '.join(reads) or 'no setting'}); leave it at its default "
+                                f"{defaults[name]!r}, got {show(value)}")
+        if not isinstance(self.shift, (bool, np.bool_)):
+            problems.append(f"shift must be a boolean, got {show(self.shift)}")
+        if self.shift_deg is not None:
+            Number("deg", low=0.0, low_strict=False).check(self.shift_deg, "shift_deg", problems)
+        Choice(COMPENSATORS).check(self.compensator, "compensator", problems)
+        if self.kind == "open" and (self.shift is True or self.compensator != "none"):
+            problems.append("shift and compensator do not apply to an open controller (no feedback)")
+        return problems
 
     @property
     def effective_compensator(self) -> str:

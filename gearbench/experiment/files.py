@@ -425,6 +425,19 @@ def load_plant(source: str | Path | Mapping, *, base_dir: str | Path | None = No
     ConfigError
         Listing every problem: unknown or missing keys, wrong types (a boolean
         is not a number), non-finite or unphysical values, YAML syntax errors.
+
+    Examples
+    --------
+    >>> from gearbench import load_plant
+    >>> load_plant("experiments/plants/thesis_gear.yaml").gear.ratio
+    100.0
+    >>> plant = load_plant({"name": "servo",
+    ...     "motor": {"resistance": 2.5, "inductance": 1e-3, "torque_constant": 0.02,
+    ...               "back_emf_constant": 0.02, "inertia": 1e-6, "damping": 1e-6, "max_voltage": 12},
+    ...     "gear": {"ratio": 100, "backlash_deg": 3, "mesh_stiffness": 2.4e7, "mesh_damping": 3.4},
+    ...     "load": {"inertia": 5e-5, "damping": 15}})
+    >>> plant.name, plant.gear.half_clearance > 0
+    ('servo', True)
     """
     if isinstance(source, Mapping):
         return plant_from_dict(source)
@@ -763,6 +776,13 @@ def load_experiment(path: str | Path) -> Experiment:
     ------
     ConfigError
         Listing every problem of the experiment and of its plant file.
+
+    Examples
+    --------
+    >>> from gearbench import load_experiment
+    >>> exp = load_experiment("experiments/table1.yaml")
+    >>> len(exp.runs()), exp.solver.rtol
+    (30, 1e-07)
     """
     path = Path(path)
     return experiment_from_dict(read_yaml(path), base_dir=path.parent, name=path.stem,

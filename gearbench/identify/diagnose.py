@@ -12,7 +12,10 @@ error by more than ``MIN_ERROR_DROP``; ``None`` when the model already sits
 at the noise floor, or when no candidate explains the residual.
 
 The ladder repeats: add the verdict with its fitted parameters, diagnose
-again, until nothing more pays.
+again, until nothing more pays.  It steps both ways: after each rung every
+effect an earlier rung added is refitted out, and one that no longer pays by
+the same criterion is taken out, as a rung of its own (``action: remove``).
+The verdict is the first effect added that is still in the model at the end.
 """
 from __future__ import annotations
 
@@ -26,10 +29,13 @@ from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, set_values
 from .replay import Replay, ReplayError
 from ..workers import process_pool, worker_count
 
+RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
+           "lowest first; candidates whose fit failed last")
 MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
 AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is explained
 JOINT_TOP = 3              # candidates refitted jointly with the effects already added
+PAIR_TOP = 4               # the best single candidates fitted in pairs when none reaches the noise floor
 GRID = (0.03, 0.1, 0.3, 1.0, 3.0)  # multiples of a parameter's typical value tried before fitting
                                    # (both signs when its bounds allow a negative value)
 
@@ -164,6 +170,34 @@ def _run_candidate(args):
     return try_candidate(*args)
 
 
+def try_pair(replay: Replay, scorer: Scorer, plant: Plant, a: Tried, b: Tried,
+             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Tried:
+    """Fit two candidates jointly (from their single fits' values), with the free plant
+    parameters and the effects numbered in ``refit``: effects that are confounded alone
+    (Coulomb friction and a bias, a spring and a bias) are told apart together.  The
+    result is ``b``'s (its candidate, its parameters) with ``a`` in the model before it."""
+    both = plant.with_effects(AddedEffect(a.candidate.name, {**a.candidate.options, **a.params}),
+                              AddedEffect(b.candidate.name, {**b.candidate.options, **b.params}))
+    n = len(both.effects)
+    frees = Free.effect(both, n - 2) + Free.effect(both, n - 1) + [Free.plant(both, p) for p in free_plant]
+    for i in refit:
+        frees += Free.effect(both, i)
+    try:
+        res = fit(replay, both, frees, scorer)
+    except (ReplayError, ValueError) as exc:
+        return Tried(b.candidate, None, note=f"could not be simulated: {exc}")
+    if not res.converged:
+        return Tried(b.candidate, res, note=res.message)
+    res.k += (a.result.k - len(Free.effect(both, n - 2))) + (b.result.k - len(Free.effect(both, n - 1)))
+    params = {k: v for k, v in res.plant.effects[n - 1].values.items() if not isinstance(v, str)}
+    stderr = {k.split(".", 1)[1]: v for k, v in res.stderr.items() if k.startswith(f"effects[{n - 1}].")}
+    return Tried(b.candidate, res, params, stderr)
+
+
+def _run_pair(args):
+    return try_pair(*args)
+
+
 @dataclass
 class Step:
     """One rung of the ladder: the effect added, its parameters, the error after
@@ -179,6 +213,7 @@ class Step:
     model: list
     plant_params: dict
     explanation: str = ""
+    action: str = "add"     # "add", or "remove": an effect of an earlier rung that no longer pays
 
 
 @dataclass
@@ -198,16 +233,22 @@ class Diagnosis:
     free_plant: tuple = ()
 
     def to_json(self) -> dict:
-        """The SPEC's ``diagnose --json`` object (plus units and explanations)."""
+        """The SPEC's ``diagnose --json`` object (plus units and explanations).
+
+        ``candidates`` are the first rung's, best first by :data:`RANKING`; each carries
+        ``effect``, ``options`` ({} when it has none), ``params``, ``error`` and ``bic``,
+        ``stderr``, the number ``k`` of fitted parameters, a ``status`` (``ok``, or
+        ``failed`` with ``error`` and ``bic`` null) and a ``message`` saying why it failed."""
         def cand(t: Tried) -> dict:
-            d = {"effect": t.candidate.name, **({"options": t.candidate.options} if t.candidate.options else {}),
-                 "params": t.params, "error": t.result.error if t.ok else None}
-            if t.ok:
-                d.update(stderr=t.stderr, bic=t.result.bic, k=t.result.k)
-            if t.note:
-                d["note"] = t.note
+            d = {"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
+                 "error": t.result.error if t.ok else None, "bic": t.result.bic if t.ok else None,
+                 "stderr": t.stderr if t.ok else {}, "k": t.result.k if t.ok else None,
+                 "status": "ok" if t.ok else "failed"}
+            if t.note or not t.ok:
+                d["message"] = t.note or "the fit did not converge"
             return d
         return {
+            "ranking": RANKING,
             "baseline_error": self.baseline_error,
             "noise_floor": self.noise_floor,
             "error_signal": self.signal,
@@ -217,7 +258,7 @@ class Diagnosis:
             "verdict": self.verdict,
             "reason": self.reason,
             "baseline_relative_error_pct": self.baseline_relative_pct,
-            "ladder": [{"effect": s.effect, **({"options": s.options} if s.options else {}),
+            "ladder": [{"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
                         "params": s.params, "stderr": s.stderr, "error": s.error,
                         "relative_error_pct": s.relative_error_pct, "model": s.model,
                         "plant_params": s.plant_params, "explanation": s.explanation}
@@ -229,26 +270,47 @@ def _rank(tried: list[Tried]) -> list[Tried]:
     return sorted(tried, key=lambda t: (not t.ok, t.result.bic if t.ok else math.inf))
 
 
-def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
-    """Fit candidates in parallel; an item of ``cands`` may be ``(candidate, start values)``."""
-    jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
-            for c in cands]
-    jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
+def _map(fn, jobs, workers, progress):
+    """``fn`` over ``jobs`` in parallel (``workers`` processes, ``gearbench.workers``), in order."""
     workers = worker_count(workers, len(jobs))
     if workers > 1:
         with process_pool(workers) as pool:
             out = []
-            for t in pool.map(_run_candidate, jobs):
+            for t in pool.map(fn, jobs):
                 out.append(t)
                 if progress:
                     progress(t)
             return out
     out = []
     for j in jobs:
-        out.append(_run_candidate(j))
+        out.append(fn(j))
         if progress:
             progress(out[-1])
     return out
+
+
+def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
+    """Fit candidates in parallel; an item of ``cands`` may be ``(candidate, start values)``."""
+    jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
+            for c in cands]
+    jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
+    return _map(_run_candidate, jobs, workers, progress)
+
+
+def _best_pair(replay, scorer, plant, tried: list[Tried], free_plant, refit, workers) -> tuple[Tried, Tried] | None:
+    """The best joint fit of two of the ``PAIR_TOP`` best single candidates (of different
+    effects), as ``(first, second)``: ``first`` the one of the two with the lower BIC alone,
+    ``second`` the joint fit.  None when fewer than two candidates were fitted."""
+    top = [t for t in tried if t.ok][:PAIR_TOP]
+    pairs = [(a, b) for i, a in enumerate(top) for b in top[i + 1:] if a.candidate.name != b.candidate.name]
+    if not pairs:
+        return None
+    joint = _map(_run_pair, [(replay, scorer, plant, a, b, free_plant, refit) for a, b in pairs], workers, None)
+    fitted = [(j, a) for j, (a, b) in zip(joint, pairs) if j.ok]
+    if not fitted:
+        return None
+    j, a = min(fitted, key=lambda f: f[0].result.bic)
+    return a, j
 
 
 def _accepts(current: FitResult, new: FitResult) -> bool:
@@ -284,15 +346,56 @@ def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant
     return res, notes
 
 
+def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> FitResult | None:
+    """The model of ``res`` without effect ``i``, the other ladder effects (numbers
+    ``first`` on) and the free plant parameters refitted from where they are."""
+    effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
+    trial = replace(res.plant, effects=effects)
+    frees = [Free.plant(trial, p) for p in free_plant]
+    for j in range(first, len(effects)):
+        frees += Free.effect(trial, j)
+    try:
+        r = fit(replay, trial, frees, scorer) if frees else evaluate(replay, scorer, trial)
+    except (ReplayError, ValueError):
+        return None
+    return r if r.converged else None
+
+
+def _prune(replay, scorer, res: FitResult, first: int, free_plant) -> list[tuple[AddedEffect, FitResult, float]]:
+    """Stepwise backwards: with two or more effects on the ladder, each is refitted out
+    (the newest too: it was judged against the model before it, not against the same
+    effects refitted); one whose removal the model with it does not beat by the criterion
+    that added it (:func:`_accepts`) no longer pays and comes out, the one that pays least
+    first, until every effect left pays.  Returns ``(removed effect, model without it, BIC
+    change)``."""
+    out = []
+    while len(res.plant.effects) - first >= 2:
+        options = []
+        for i in range(first, len(res.plant.effects)):
+            r = _without(res, i, first, replay, scorer, free_plant)
+            if r is not None and not _accepts(r, res):
+                options.append((r.bic - res.bic, i, r))
+        if not options:
+            break
+        gain, i, r = min(options, key=lambda o: o[0])
+        out.append((res.plant.effects[i], r, gain))
+        res = r
+    return out
+
+
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
              workers: int | None = None, progress=None, only: tuple[str, ...] = ()) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
 
     Each rung fits every candidate with the effects added so far held (cheap),
     then refits the best ``JOINT_TOP`` jointly with them (the first rung's
-    friction must give back what a later viscous term explains), accepts the
-    best if it pays (``_accepts``), and tries the simpler forms of what was
-    added (``_simplify``).
+    friction must give back what a later viscous term explains).  When no single
+    candidate reaches the noise floor, the best ``PAIR_TOP`` are also fitted two
+    at a time, and a pair whose BIC is more than ``MIN_BIC_DROP`` below the best
+    single's is added as two rungs (confounded effects: Coulomb friction and a
+    bias, a spring and a bias).  It accepts the best if it pays (``_accepts``),
+    tries the simpler forms of what was added (``_simplify``), and takes out
+    what no longer pays (``_prune``).
 
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
@@ -311,6 +414,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         replay.data.input_unit
     current, current_res = base.plant, base
     ladder: list[Step] = []
+    rungs: list[int] = []  # the ladder step that added each effect of the model past the plant's own
     first_tried: list[Tried] = []
     reason = ""
     for step in range(max_steps):
@@ -329,7 +433,13 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         if step == 0:
             first_tried = tried
         best = tried[0] if tried and tried[0].ok else None
-        if best is None or not _accepts(current_res, best.result):
+        pair = None
+        if best is not None and best.result.weighted_rms > AT_NOISE:
+            found = _best_pair(replay, scorer, current, tried, free_plant, added, workers)
+            if (found is not None and found[1].result.bic < best.result.bic - MIN_BIC_DROP
+                    and _accepts(current_res, found[1].result)):
+                pair = found
+        if pair is None and (best is None or not _accepts(current_res, best.result)):
             if best is None:
                 gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
             else:
@@ -349,15 +459,33 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                           f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
                           f"{unit}) and {gain}; the missing physics is not in the library")
             break
-        text = explain(replay, scorer, current_res, best)
-        fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
+        new = (len(current.effects),)
+        if pair is not None:
+            first, joint = pair
+            r = first.result
+            ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr, r.error,
+                               scorer.relative_pct(r.sim), r.bic, [e.to_dict() for e in r.plant.effects],
+                               {p: get_value(r.plant, Free.plant(r.plant, p)) for p in free_plant},
+                               explain(replay, scorer, current_res, first)
+                               + f" It is the first of a pair fitted jointly: with {joint.candidate.label()} the "
+                               f"error falls to {joint.result.error:.4g} {unit}, a BIC "
+                               f"{best.result.bic - joint.result.bic:.1f} below the best single effect "
+                               f"({best.candidate.label()}, {best.result.error:.4g} {unit}); alone each explains "
+                               "only part of the residual."))
+            rungs.append(len(ladder) - 1)
+            text = explain(replay, scorer, r, joint)
+            best, new = joint, (len(current.effects), len(current.effects) + 1)
+        else:
+            text = explain(replay, scorer, current_res, best)
+        fitted, notes = _simplify(replay, scorer, best.result, added + new, free_plant)
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
                            [e.to_dict() for e in fitted.plant.effects],
                            {p: get_value(fitted.plant, Free.plant(fitted.plant, p)) for p in free_plant},
                            text))
+        rungs.append(len(ladder) - 1)
         for i, old, new, gain in notes:
-            rung = ladder[i - len(plant.effects)]
+            rung = ladder[rungs[i - len(plant.effects)]]
             e = fitted.plant.effects[i]
             rung.effect = new
             rung.params = {k: v for k, v in e.values.items() if not isinstance(v, str)}
@@ -365,6 +493,20 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                                  f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
                                  "parameters do not pay.")
         current, current_res = fitted.plant, fitted
-    verdict = ladder[0].effect if ladder else None
+        for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), free_plant):
+            rungs.pop(current_res.plant.effects.index(gone) - len(plant.effects))
+            opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
+            ladder.append(Step(gone.name, opts, {k: v for k, v in gone.values.items() if not isinstance(v, str)},
+                               {}, without.error, scorer.relative_pct(without.sim), without.bic,
+                               [e.to_dict() for e in without.plant.effects],
+                               {p: get_value(without.plant, Free.plant(without.plant, p)) for p in free_plant},
+                               f"Taken out at step {len(ladder) + 1}: once {best.candidate.label()} is in, "
+                               f"{gone.name} no longer pays; refitted without it the error is "
+                               f"{without.error:.4g} {unit} against {current_res.error:.4g} {unit}, the BIC "
+                               f"{'rises' if gain > 0 else 'falls'} by {abs(gain):.1f} (an effect must lower it by "
+                               f"more than {MIN_BIC_DROP:g} and the weighted RMS by {MIN_ERROR_DROP:.0%} to stay).",
+                               action="remove"))
+            current, current_res = without.plant, without
+    verdict = ladder[rungs[0]].effect if rungs else None
     return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
                      reason, current, base, base.plant, scorer.relative_pct(base.sim), tuple(free_plant))

@@ -7,8 +7,7 @@ error of a :class:`~gearbench.identify.replay.Replay`: every compared column's
 residual divided by that column's noise floor, so signals in different units
 weigh by how well they are measured.  ``scipy.optimize.least_squares`` (trust
 region reflective) works on the parameters divided by their scales; standard
-errors come from its Jacobian, ``cov = s^2 (J^T J)^-1`` with
-``s^2 = RSS / (n - k)``.
+errors come from its Jacobian (:mod:`gearbench.identify.uncertainty`).
 """
 from __future__ import annotations
 
@@ -22,6 +21,7 @@ from ..measure.noise import noise_floor
 from ..plant.components import Plant
 from ..plant.effects import AddedEffect
 from .replay import Replay, ReplayError
+from .uncertainty import standard_errors
 
 PLANT_FIELDS = {  # key path -> (unit, low bound)
     "motor.inertia": ("kg m^2", 0.0), "motor.damping": ("N m s/rad", 0.0),
@@ -232,13 +232,8 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
                          f"the fitted plant does not simulate: {exc}", res.nfev)
     w = scorer.weighted(sim)
     rss, n, k = float(w @ w), w.size, len(frees)
-    stderr = {}
-    try:
-        cov = np.linalg.inv(res.jac.T @ res.jac) * rss / max(n - k, 1)
-        for f, s, c in zip(frees, sc, np.diag(cov)):
-            stderr[f.name] = float(math.sqrt(c) * s) if c >= 0 else math.nan
-    except np.linalg.LinAlgError:
-        stderr = {f.name: math.nan for f in frees}
+    # res.jac is in the scaled coordinates z = x / scale
+    stderr = {f.name: float(e * s) for f, e, s in zip(frees, standard_errors(res.jac, rss, n), sc)}
     converged = res.status > 0
     msg = res.message if converged else f"did not converge: {res.message}"
     if failures and converged:

@@ -33,7 +33,7 @@ from ..measure.data import INPUT_COLUMNS, SIGNAL_COLUMNS, Measurement, from_arra
 from ..plant.components import Plant
 from ..plant.effects.base import AddedEffect
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
-from ..simulate import Segments, SolverOptions, failure_message, simulate, simulate_packed
+from ..simulate import Segments, SolverError, SolverOptions, failure_message, simulate, simulate_packed
 from . import signals as S
 
 INPUT_COLUMN = {"voltage": "voltage_V", "torque": "drive_torque_Nm", "force": "drive_force_N"}
@@ -59,6 +59,10 @@ SOLVER = SolverOptions(rtol=1e-6, max_step_s=1e-3)
 
 class SynthError(RuntimeError):
     """Synthesis that cannot be done or failed; the message says which run and where."""
+
+
+class SynthRunError(SynthError, SolverError):
+    """The solver could not finish the synthesis run (the CLI exits 1, not 2)."""
 
 
 # ------------------------------------------------------------------ inputs
@@ -199,7 +203,7 @@ def profile_input(plant: Plant, number: int, duration_s: float = 10.0,
                    SolverOptions(rtol=SOLVER.rtol, max_step_s=SOLVER.max_step_s, output_dt_s=sample_time_s),
                    label=f"profile:{number} under {ctrl.kind} control")
     if not run.ok:
-        raise SynthError(failure_message(run, plant.name))
+        raise SynthRunError(failure_message(run, plant.name, plant))
     out = run.outputs
     if len(out) != len(t):
         raise SynthError(f"profile:{number}: got {len(out)} samples, expected {len(t)}")
@@ -414,8 +418,8 @@ def synthesize(plant: Plant, hidden: Sequence[AddedEffect], time_s, input,
                           rest_state(truth), SOLVER, name, output_times=tr)
     if not run.ok:
         when = run.stats[L.S_T_FAIL]
-        msg = failure_message(run, truth.name).replace(f"t = {when:.6g} s", f"t = {when + t0:.6g} s")
-        raise SynthError(msg + f" (hidden effects: {', '.join(e.name for e in hidden) or 'none'})")
+        msg = failure_message(run, truth.name, truth).replace(f"t = {when:.6g} s", f"t = {when + t0:.6g} s")
+        raise SynthRunError(msg + f" (hidden effects: {', '.join(e.name for e in hidden) or 'none'})")
     rng = np.random.default_rng(seed)
     cols = {}
     for sig in signals:

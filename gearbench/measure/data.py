@@ -1,4 +1,4 @@
-"""Measurement records in the SPEC's CSV format (section 3): read, check, write.
+"""Measurement records in gearbench's CSV format (docs/measurements.md): read, check, write.
 
 A measurement file has one row per sample and a header of column names that carry their
 unit as a suffix (``time_s``, ``voltage_V``, ``load_angle_deg``, ...).  It needs
@@ -10,8 +10,10 @@ unit as a suffix (``time_s``, ``voltage_V``, ``load_angle_deg``, ...).  It needs
 - optionally one set point (:data:`SETPOINT_COLUMNS`) and ``disturbance_V`` (V), a voltage
   added to a controller's output after its saturation (the EMPS force pulses).
 
-``setpoint_mm``, ``motor_position_mm`` and ``disturbance_V`` are gearbench extensions for
-translational plants; everything else is the SPEC's table.  Every value must be a finite
+``setpoint_mm``, ``motor_position_mm`` and ``disturbance_V`` serve translational plants.
+A file with other column names or units is read through a column mapping
+(:mod:`gearbench.measure.columns`); the delimiter and decimal mark are sniffed
+(:mod:`gearbench.measure.csvformat`).  Every value must be a finite
 number.  A bad file is rejected before anything is returned, with one
 :class:`MeasurementError` that lists every problem found and names its column or row.
 Rows are counted from 1 at the first data row, so data row ``r`` is file line ``r + 1``.
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import difflib
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from ..report.io import write_csv_atomic
+from .csvformat import CsvFormat, CsvFormatError, sniff
 
 TIME_COLUMN = "time_s"
 INPUT_COLUMNS = ("voltage_V", "drive_torque_Nm", "drive_force_N")
@@ -193,8 +197,11 @@ def _file_rows(lines: np.ndarray) -> Callable[[int], str]:
 
 
 def _value_problems(name: str, values: np.ndarray, where: Callable[[int], str],
-                    raw: np.ndarray | None = None) -> list[str]:
-    """Non-numeric, missing, NaN or infinite entries: the first one and how many."""
+                    raw: np.ndarray | None = None, label: str | None = None) -> list[str]:
+    """Non-numeric, missing, NaN or infinite entries: the first one and how many.
+
+    ``label`` names the column in the message (default ``'name'``; a mapped column
+    adds the file's name for it)."""
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size == 0:
         return []
@@ -207,7 +214,7 @@ def _value_problems(name: str, values: np.ndarray, where: Callable[[int], str],
     else:
         what = f"infinite value {values[i]}"
     more = f" ({bad.size} bad rows in all)" if bad.size > 1 else ""
-    return [f"column {name!r}: {what} at {where(i)}{more}"]
+    return [f"column {label or repr(name)}: {what} at {where(i)}{more}"]
 
 
 def _is_number(text: str) -> bool:
@@ -258,13 +265,14 @@ def _assemble(columns: Mapping[str, np.ndarray], source: str) -> Measurement:
 
 def _check_and_assemble(names: Sequence[str], values: Mapping[str, np.ndarray], source: str,
                         where: Callable[[int], str], raw: Mapping[str, np.ndarray] | None = None,
-                        extra: Sequence[str] = ()) -> Measurement:
+                        extra: Sequence[str] = (), labels: Mapping[str, str] | None = None) -> Measurement:
     problems = _column_problems(names) + list(extra)
+    labels = labels or {}
     n_rows = len(next(iter(values.values()))) if values else 0
     if values and n_rows < _MIN_ROWS:
         problems.append(f"{n_rows} sample(s): a measurement needs at least {_MIN_ROWS}")
     for name, v in values.items():
-        problems += _value_problems(name, v, where, raw.get(name) if raw else None)
+        problems += _value_problems(name, v, where, raw.get(name) if raw else None, labels.get(name))
     if TIME_COLUMN in values:
         problems += _time_problems(values[TIME_COLUMN], where)
     _raise(problems, source)
@@ -275,24 +283,35 @@ def _check_and_assemble(names: Sequence[str], values: Mapping[str, np.ndarray], 
 # Files
 # ---------------------------------------------------------------------------
 
-def _read_header(path: Path) -> list[str]:
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        first = fh.readline()
-        rest = fh.read(1)
+def _read_header(path: Path, fmt: CsvFormat) -> list[str]:
+    try:
+        with open(path, newline="", encoding=fmt.encoding) as fh:
+            first = fh.readline()
+            rest = fh.read(1)
+    except (UnicodeDecodeError, OSError) as exc:
+        raise MeasurementError(f"measurement file '{path}': cannot read its header as {fmt.encoding} text: "
+                               f"{exc}") from None
     if not first.strip():
         if not rest.strip():
             raise MeasurementError(f"measurement file '{path}' is empty")
         raise MeasurementError(f"measurement file '{path}': file line 1 is blank; it must be the header")
-    return [name.strip() for name in next(csv.reader([first]))]
+    try:
+        return [name.strip() for name in next(csv.reader([first], delimiter=fmt.delimiter))]
+    except csv.Error as exc:
+        raise MeasurementError(f"measurement file '{path}': file line 1 is not a CSV header: {exc}") from None
 
 
-def _read_body(path: Path, n_cols: int) -> pd.DataFrame:
+def _read_body(path: Path, n_cols: int, fmt: CsvFormat) -> pd.DataFrame:
     """Data rows as parsed by pandas, columns numbered; blank lines kept so rows count true."""
     try:
         return pd.read_csv(path, header=None, skiprows=1, names=range(n_cols), skip_blank_lines=False,
-                           skipinitialspace=True, encoding="utf-8-sig", low_memory=False)
+                           skipinitialspace=True, encoding=fmt.encoding, low_memory=False,
+                           sep=fmt.delimiter, decimal=fmt.decimal)
     except pd.errors.EmptyDataError:
         return pd.DataFrame(columns=range(n_cols))
+    except UnicodeDecodeError as exc:
+        raise MeasurementError(f"measurement file '{path}' is not {fmt.encoding} text beyond its first lines "
+                               f"(byte 0x{exc.object[exc.start]:02x}): save it as UTF-8 CSV") from None
     except pd.errors.ParserError as exc:
         found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
         if found:
@@ -300,44 +319,108 @@ def _read_body(path: Path, n_cols: int) -> pd.DataFrame:
             expected, line, seen = map(int, found.groups())
             raise MeasurementError(
                 f"measurement file '{path}': data row {line - 1} (file line {line}) has {seen} fields, "
-                f"the header names {expected} columns", ) from None
+                f"the header names {expected} columns ({fmt.describe()})", ) from None
         raise MeasurementError(f"measurement file '{path}' is not a well-formed CSV table: {exc}") from None
 
 
-def _to_float(column: pd.Series) -> tuple[np.ndarray, np.ndarray | None]:
+def _to_float(column: pd.Series, decimal: str = ".") -> tuple[np.ndarray, np.ndarray | None]:
     """Float values (NaN where not a number) and, if any text was found, the raw text."""
     if pd.api.types.is_numeric_dtype(column):
         return column.to_numpy(dtype=float), None
-    return pd.to_numeric(column, errors="coerce").to_numpy(dtype=float), column.to_numpy(dtype=object)
+    text = column
+    if decimal == ",":  # pandas leaves a column with any non-number as text, decimal commas too
+        text = column.astype("string").str.replace(",", ".", regex=False)
+    return pd.to_numeric(text, errors="coerce").to_numpy(dtype=float), column.to_numpy(dtype=object)
 
 
-def read_measurement(path: str | Path) -> Measurement:
-    """Read and check a measurement CSV (SPEC section 3); raise :class:`MeasurementError`
-    naming every bad column and the first bad row of each."""
+def read_measurement(path: str | Path, columns=None, units=None) -> Measurement:
+    """Read and check a measurement CSV (docs/measurements.md); raise :class:`MeasurementError`
+    naming every bad column and the first bad row of each.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file: comma-, semicolon- or tab-separated, decimal point or (with a
+        semicolon or tab) decimal comma, UTF-8 or Windows-1252; all sniffed.
+    columns : ColumnMap, mapping or str, optional
+        Which file column holds each gearbench column (``{'time_s': 't'}`` or
+        ``'time_s=t,voltage_V=u'``); a :class:`gearbench.measure.columns.ColumnMap`
+        may carry units, delimiter and decimal mark too.  Default: the file's header
+        names gearbench's columns.
+    units : mapping or str, optional
+        The unit of each mapped column (``{'time': 'ms', 'load_angle': 'rad'}``); its
+        values are converted to gearbench's units.
+    """
+    return read_mapped(path, columns, units)[0]
+
+
+def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement, list[str], list[str]]:
+    """:func:`read_measurement`, and what it did.
+
+    Parameters
+    ----------
+    path, columns, units
+        As for :func:`read_measurement`.
+
+    Returns
+    -------
+    tuple of (Measurement, list of str, list of str)
+        The record; one line per mapped column saying which file column it came from and
+        the unit conversion (``load_angle_deg <- 'theta' in rad (x 57.2958)``); the file
+        columns left out (neither mapped nor named as gearbench's).  Without a mapping
+        both lists are empty.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise MeasurementError(f"path must be a measurement file's path (str or Path), got a {type(path).__name__}")
     path = Path(path)
     if not path.exists():
         raise MeasurementError(f"measurement file '{path}' does not exist")
     if path.is_dir():
         raise MeasurementError(f"measurement file '{path}' is a directory, not a CSV file")
+    cmap = None
+    if columns is not None or units is not None:
+        from .columns import as_column_map
+        cmap = as_column_map(columns, units)
     try:
-        names = _read_header(path)
-        body = _read_body(path, len(names))
-    except UnicodeDecodeError as exc:  # a binary file, or text in another encoding
-        raise MeasurementError(
-            f"measurement file '{path}' is not UTF-8 text: byte {exc.object[exc.start]:#04x} at offset "
-            f"{exc.start} cannot be read (a binary file, or another encoding: save it as UTF-8 CSV)") from None
+        fmt = sniff(path, cmap.delimiter if cmap else None, cmap.decimal if cmap else None)
+    except CsvFormatError as exc:
+        raise MeasurementError(str(exc)) from None
+    names = _read_header(path, fmt)
+    body = _read_body(path, len(names), fmt)
     # Blank lines carry no sample; drop them but keep every sample's own file line.
     lines = np.arange(len(body)) + 2
     filled = ~body.isna().all(axis=1).to_numpy()
     body, lines = body[filled], lines[filled]
     where = _file_rows(lines)
+    used: list[str] = []
+    ignored: list[str] = []
     if not len(body):
-        return _check_and_assemble(names, {}, str(path), where, extra=["the file has a header but no data rows"])
+        return _check_and_assemble(names, {}, str(path), where,
+                                   extra=["the file has a header but no data rows"]), used, ignored
+    if cmap is not None and not cmap.empty:
+        from .columns import map_columns, needed
+        mapped = map_columns(cmap, names, body, str(path), lambda c: _to_float(c, fmt.decimal))
+        used, ignored = mapped.used, mapped.ignored
+        try:
+            m = _check_and_assemble(mapped.names, mapped.values, str(path), where, raw=mapped.raw,
+                                    labels=mapped.labels)
+        except MeasurementError as exc:
+            found = ", ".join(repr(n) for n in names)
+            context = [f"the file's columns are {found}; mapped: {'; '.join(used) or 'none'}", needed()]
+            raise MeasurementError(f"{exc}\n  - " + "\n  - ".join(context), exc.problems + context) from None
+        return m, used, ignored
     values, raw = {}, {}
     for j, name in enumerate(names):
         if name in COLUMN_UNITS and names.count(name) == 1:
-            values[name], raw[name] = _to_float(body[j])
-    return _check_and_assemble(names, values, str(path), where, raw=raw)
+            values[name], raw[name] = _to_float(body[j], fmt.decimal)
+    try:
+        return _check_and_assemble(names, values, str(path), where, raw=raw), used, ignored
+    except MeasurementError as exc:
+        if not any(p.startswith("unknown") for p in exc.problems):
+            raise
+        hint = ("to read columns with other names or units, map them: --columns time_s=t,... "
+                "--units load_angle=rad,... (docs/measurements.md)")
+        raise MeasurementError(f"{exc}\n  ({hint})", exc.problems) from None
 
 
 def from_frame(frame: pd.DataFrame, source: str = "") -> Measurement:
@@ -413,5 +496,5 @@ def write_measurement(frame_or_measurement, path: str | Path, float_format: str 
 
 
 __all__ = ["MeasurementError", "Measurement", "INPUT_COLUMNS", "SIGNAL_COLUMNS", "SETPOINT_COLUMNS",
-           "TIME_COLUMN", "DISTURBANCE_COLUMN", "COLUMN_UNITS", "read_measurement", "from_arrays",
+           "TIME_COLUMN", "DISTURBANCE_COLUMN", "COLUMN_UNITS", "read_measurement", "read_mapped", "from_arrays",
            "from_frame", "write_measurement"]

@@ -28,7 +28,7 @@ pulses_N   V       validation run only: 0/5 V square wave (1 s period, 50 % duty
 
 ``read_emps`` reads the original ``.mat`` files or their CSV copies (columns ``t_s, qm_m, qg_m,
 vir_V, force_N[, pulse_V]``); ``to_measurement_frame`` turns a record into gearbench's
-measurement format (SPEC section 3) with the drive force as the input.
+measurement format (docs/measurements.md) with the drive force as the input.
 """
 from __future__ import annotations
 
@@ -249,7 +249,7 @@ def read_emps(path: str | Path) -> dict[str, Any]:
 
 
 def to_measurement_frame(d: dict[str, Any]):
-    """An EMPS record (from ``read_emps``) as a gearbench measurement frame (SPEC section 3).
+    """An EMPS record (from ``read_emps``) as a gearbench measurement frame (docs/measurements.md).
 
     Columns:
 
@@ -264,7 +264,7 @@ def to_measurement_frame(d: dict[str, Any]):
       authors add to vir after the +-10 V saturation.  It is already inside drive_force_N
       (informational; do not add it again).
 
-    Zero is where the record starts (SPEC): the records do not start at qm = 0 (qm[0] = 7.45e-6 m
+    Zero is where the record starts: the records do not start at qm = 0 (qm[0] = 7.45e-6 m
     train, 7.67e-6 m pulses; qg[0] = 1.078e-4 m), so qm[0] is subtracted from qm AND qg, which
     keeps the tracking error qg - qm unchanged.  Note that EMPS records do not start at rest
     (the axis already moves at ~7 mm/s and the drive pushes ~89 N at t = 0).

@@ -80,6 +80,18 @@ def decimate_matlab(x: np.ndarray, r: int) -> np.ndarray:
     return y[nbeg - 1::r]
 
 
+def kinematics(position_m, ts: float, *, emulate_matlab: bool = True
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Filtered position (m), velocity (m/s) and acceleration (m/s^2) by the paper's IDIM chain:
+    a 4th-order Butterworth at 100 Hz applied forwards and backwards (MATLAB ``filtfilt``'s
+    padding when ``emulate_matlab``), then :func:`diffcent` twice.  ``ts``: sample time, s."""
+    b, a = ss.butter(BUTTER_ORDER, BUTTER_CUTOFF_HZ / (0.5 / ts))
+    q = np.asarray(position_m, dtype=float)
+    q_f = filtfilt_matlab(b, a, q) if emulate_matlab else ss.filtfilt(b, a, q)
+    qd = diffcent(q_f, ts)
+    return q_f, qd, diffcent(qd, ts)
+
+
 def _decimate(x: np.ndarray, r: int, emulate_matlab: bool) -> np.ndarray:
     if emulate_matlab:
         return decimate_matlab(x, r)
@@ -128,10 +140,7 @@ def observation(d: Any, *, emulate_matlab: bool = True) -> dict[str, Any]:
     r = int(round(0.8 * fnyq / (2 * 20.0)))
     if qm.size < N_DROP + 3 * (CHEBY_ORDER + 1) + r:
         raise ValueError(f"record too short for IDIM-LS ({qm.size} samples)")
-    b, a = ss.butter(BUTTER_ORDER, BUTTER_CUTOFF_HZ / fnyq)
-    q_f = filtfilt_matlab(b, a, qm) if emulate_matlab else ss.filtfilt(b, a, qm)
-    qd = diffcent(q_f, ts)
-    qdd = diffcent(qd, ts)
+    _, qd, qdd = kinematics(qm, ts, emulate_matlab=emulate_matlab)
     keep = slice(N_DROP, None)
     qd, qdd, y = qd[keep], qdd[keep], force[keep]
     sgn = np.sign(qd)

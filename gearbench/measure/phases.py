@@ -162,3 +162,20 @@ def phase_codes(labels) -> np.ndarray:
 
 
 __all__ = ["PHASES", "classify_phases", "error_shares", "smoothed_speed", "phase_codes"]
+
+
+def pulse_edges(disturbance) -> np.ndarray:
+    """Sample indices where a disturbance input (e.g. a record's ``disturbance_V``) changes
+    value: the sample after each jump.  Empty for ``None``."""
+    if disturbance is None:
+        return np.array([], dtype=int)
+    return np.flatnonzero(np.diff(np.asarray(disturbance, dtype=float)) != 0.0) + 1
+
+
+def edge_mask(time_s, disturbance, window_s: float) -> np.ndarray:
+    """True in the ``window_s`` seconds that follow each of :func:`pulse_edges`."""
+    t = np.asarray(time_s, dtype=float)
+    mask = np.zeros(t.size, dtype=bool)
+    for i in pulse_edges(disturbance):
+        mask |= (t >= t[i]) & (t < t[i] + window_s)
+    return mask

@@ -22,7 +22,7 @@ Penetration ``p = delta - h`` (delta > h), ``delta + h`` (delta < -h), else 0.
 
 The solver keeps a contact mode (-1, 0, +1).  ``engaged_torque`` is the torque
 while engaged on flank ``mode``; ``unclipped`` is ``Tc + Td``, whose sign
-decides when the teeth separate (SOLVER-NOTES: leave contact on the sign of the
+decides when the teeth separate (docs/solver-notes.md: leave contact on the sign of the
 torque, not on the penetration).  ElastoBacklash's ``min(Tc, Td)`` is a kink
 inside the contact: the solver keeps which piece is active as a mode too
 (``limited``: ``2 Tc`` where the damping is limited, else ``Tc + Td``) and

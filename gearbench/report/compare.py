@@ -43,31 +43,109 @@ def _phase_legend(ax, labels: np.ndarray) -> None:
         ax.legend(handles=handles, loc="upper right", fontsize=7, title="phase", title_fontsize=7)
 
 
-def comparison_figure(time_s, measured, simulated, labels, name: str, unit: str, title: str = "") -> Figure:
-    """Measured and simulated ``name`` (``unit``) against time (s), and the residual
+def _mark_reinitialisations(axes, reinit_s: Sequence[float]) -> None:
+    """A thin vertical line at each instant the replay moved the model's angles to the record's."""
+    for ax in axes:
+        for t0 in reinit_s:
+            ax.axvline(t0, color="#5b2c83", lw=0.6, alpha=0.7, zorder=1)
+
+
+def comparison_figure(time_s, measured, simulated, labels, name: str, unit: str, title: str = "",
+                      inputs: Sequence[tuple[str, object, str]] = (), reinit_s: Sequence[float] = ()) -> Figure:
+    """Measured and simulated ``name`` (``unit``) against time (s), the residual
     ``measured − simulated`` below, both shaded by motion phase (``labels`` from
-    :func:`gearbench.measure.phases.classify_phases`, or None for no shading)."""
+    :func:`gearbench.measure.phases.classify_phases`, or None for no shading), and,
+    when given, the record's inputs in a panel at the bottom: ``inputs`` is a sequence
+    of ``(column, values, unit)``, the first on the left axis, a second (a set point)
+    on the right.  ``reinit_s``: times (s) at which the replay re-initialised the
+    model's angles from the record, drawn as thin vertical lines on every panel."""
     t = np.asarray(time_s, dtype=float)
     y_m = np.asarray(measured, dtype=float)
     y_s = np.asarray(simulated, dtype=float)
-    fig = Figure(figsize=(9, 6), layout="constrained")
-    top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    inputs = list(inputs)
+    if len(inputs) > 2:
+        raise ValueError(f"at most two input columns fit the input panel; got {[i[0] for i in inputs]}")
+    rows = 3 if inputs else 2
+    fig = Figure(figsize=(9, 7.5 if inputs else 6), layout="constrained")
+    axes = fig.subplots(rows, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1, 1][:rows]})
+    top, bottom = axes[0], axes[1]
     top.plot(t, y_m, lw=1.0, color="k", label="measured")
     top.plot(t, y_s, lw=1.0, color="C0", ls="--", label="simulated")
     top.set_ylabel(f"{name} ({unit})")
-    top.legend(loc="upper left", fontsize=8)
     bottom.plot(t, y_m - y_s, lw=0.8, color="C3")
     bottom.axhline(0.0, color="k", lw=0.5)
     bottom.set_ylabel(f"residual ({unit})")
-    bottom.set_xlabel("time (s)")
+    if inputs:
+        ax_u = axes[2]
+        handles = []
+        for k, (col, values, u_unit) in enumerate(inputs):
+            ax = ax_u if k == 0 else ax_u.twinx()
+            colour = "C2" if k == 0 else "C1"
+            handles += ax.plot(t, np.asarray(values, dtype=float), lw=0.8, color=colour,
+                               ls="-" if k == 0 else "--", drawstyle="steps-post" if k == 0 else "default",
+                               label=f"{col} (measured)" if k == 0 else col)
+            ax.set_ylabel(f"{col} ({u_unit})", color=colour)
+        ax_u.legend(handles=handles, loc="upper left", fontsize=7)
+    axes[-1].set_xlabel("time (s)")
     if labels is not None:
         labels = np.asarray(labels).astype(str)
-        for ax in (top, bottom):
+        for ax in axes:
             _shade_phases(ax, t, labels)
         _phase_legend(bottom, labels)
+    if len(reinit_s):
+        _mark_reinitialisations(axes, reinit_s)
+        top.plot([], [], color="#5b2c83", lw=0.6, label=f"angles re-initialised from the record ({len(reinit_s)})")
+    top.legend(loc="upper left", fontsize=8)
     top.set_title(title or f"{name}: measured vs simulated")
-    for ax in (top, bottom):
+    for ax in axes:
         ax.grid(alpha=0.3)
+    return fig
+
+
+def residual_tests_figure(tests: Mapping, title: str = "") -> Figure:
+    """For each signal (a row), the residual's autocorrelation at lags 0..M (left) and
+    its cross-correlation with the input at lags −M..M (right), dimensionless, with the
+    99 % band shaded (:mod:`gearbench.identify.residuals`); the joint threshold the
+    cross-correlation verdict uses is dashed; lags outside the band are red."""
+    tests = dict(tests)
+    if not tests:
+        raise ValueError("residual_tests_figure needs the tests of at least one signal")
+    fig = Figure(figsize=(11, 2.6 * len(tests) + 0.6), layout="constrained")
+    axes = fig.subplots(len(tests), 2, squeeze=False)
+    for (ax_a, ax_c), (name, rt) in zip(axes, tests.items()):
+        pct = f"{100 * rt.confidence:g} %"
+        for ax, lags, rho, band, outside in (
+                (ax_a, rt.lags, rt.autocorrelation, rt.band, rt.outside_lags),
+                (ax_c, rt.cross_lags, rt.cross_correlation, rt.cross_band, rt.cross_outside_lags)):
+            ax.axhspan(-band, band, color="C0", alpha=0.18, lw=0, label=f"{pct} band (per lag)")
+            ax.vlines(lags, 0, rho, color="k", lw=1.0)
+            ax.plot(lags, rho, "o", ms=2.5, color="k")
+            bad = np.isin(lags, outside)
+            ax.plot(lags[bad], rho[bad], "o", ms=3.5, color="C3", label="outside the band")
+            ax.axhline(0.0, color="k", lw=0.5)
+            ax.grid(alpha=0.3)
+        ax_c.axhline(rt.joint_threshold, color="C0", ls="--", lw=0.8,
+                     label=f"joint {pct} threshold (all lags together)")
+        ax_c.axhline(-rt.joint_threshold, color="C0", ls="--", lw=0.8)
+        ax_a.set_ylabel(f"{name}\nautocorrelation")
+        ax_a.set_title(f"±{rt.band:.3g}", loc="right", fontsize=8, color="C0")
+        ax_c.set_title(f"±{rt.cross_band:.3g}", loc="right", fontsize=8, color="C0")
+        p = f"p = {rt.ljung_box_p:.2g}" if rt.ljung_box_p >= 1e-16 else "p < 1e-16"
+        ax_a.set_title(f"{name}: {'white' if rt.white else 'NOT white'} (Ljung-Box {p})",
+                       fontsize=9, loc="left")
+        ax_c.set_ylabel(f"cross-correlation\nwith {rt.input_name}")
+        ax_c.set_title(f"{'independent of' if rt.input_independent else 'CORRELATED with'} {rt.input_name} "
+                       f"(+ lag: input earlier)", fontsize=9, loc="left")
+        dt = f" of {rt.sample_time_s * 1e3:.3g} ms" if rt.sample_time_s > 0 else ""
+        ax_a.set_xlabel(f"lag (samples{dt})")
+        ax_c.set_xlabel(f"lag (samples{dt})")
+    # one legend for all panels, under them: the stems fill the axes, a legend inside hides some
+    handles = {}
+    for ax in axes.ravel():
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncols=len(handles), fontsize=8)
+    fig.suptitle(title or "residual tests")
     return fig
 
 
@@ -147,17 +225,23 @@ def residual_figure(residual, speed, position, name: str, unit: str, speed_unit:
 def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, unit: str = "",
                   title: str = "") -> Figure:
     """The error after each step of the ladder: ``steps[0]`` the baseline, then one
-    ``{"effect": name, "error": value}`` per effect added; a dashed line marks the
+    ``{"effect": name, "error": value}`` per effect added (``"action": "remove"``: an
+    effect taken out again, drawn hatched as ``- name``); a dashed line marks the
     noise floor (the error noise alone would leave) when given.  ``unit`` labels the
     error axis, logarithmic when the errors span more than two decades."""
     if not steps:
         raise ValueError("a ladder needs at least its baseline step")
-    names = [str(s["effect"]) if i == 0 else f"+ {s['effect']}" for i, s in enumerate(steps)]
+    removed = [i > 0 and s.get("action") == "remove" for i, s in enumerate(steps)]
+    names = [str(s["effect"]) if i == 0 else f"{'-' if removed[i] else '+'} {s['effect']}"
+             for i, s in enumerate(steps)]
     errors = np.array([float(s["error"]) for s in steps])
     fig = Figure(figsize=(max(5.0, 1.3 * len(steps) + 2), 4), layout="constrained")
     ax = fig.subplots()
     pos = np.arange(len(steps))
-    bars = ax.bar(pos, errors, color=["#9e9e9e"] + ["C0"] * (len(steps) - 1), width=0.6)
+    bars = ax.bar(pos, errors, color=["#9e9e9e"] + ["C1" if r else "C0" for r in removed[1:]], width=0.6)
+    for bar, r in zip(bars, removed):
+        if r:
+            bar.set_hatch("//")
     ax.bar_label(bars, fmt="%.3g", fontsize=8, padding=2)
     if noise_floor is not None:
         ax.axhline(noise_floor, color="C3", ls="--", lw=1, label=f"noise floor {noise_floor:.3g}")
@@ -176,4 +260,4 @@ def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, un
     return fig
 
 
-__all__ = ["comparison_figure", "residual_figure", "ladder_figure", "PHASE_COLOURS"]
+__all__ = ["comparison_figure", "residual_figure", "residual_tests_figure", "ladder_figure", "PHASE_COLOURS"]

@@ -104,22 +104,36 @@ def compensator_figure(table: pd.DataFrame, title: str = ""):
     return fig
 
 
+def trace_cell(records) -> tuple[tuple, list]:
+    """The cell (profile, controller kind, gain) with the most voltage sign changes
+    summed over its compensators, and its runs."""
+    groups: dict = {}
+    for r in records:
+        groups.setdefault((r.profile, r.controller.kind, r.controller.kp), []).append(r)
+    if not groups:
+        raise ValueError("no runs to choose a cell from")
+    cell = max(groups, key=lambda c: sum(r.result.switchings for r in groups[c]))
+    return cell, groups[cell]
+
+
 def compensator_trace_figure(records, plant, title: str = ""):
     """Traces of the cell (profile, controller, gain) with the most voltage sign
     changes summed over its compensators: one row per compensator, the output
     error and the motor-side error ``theta_m/N - r`` (deg, left) and the voltage
-    (V, right) against time.  Returns ``(figure, cell)``."""
+    (V, right) against time.  The runs must carry their traces (a run solved for
+    its scores keeps two samples: see :func:`gearbench.runner.retrace`).
+    Returns ``(figure, cell)``."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from .. import layout as L
 
-    groups: dict = {}
-    for r in records:
-        groups.setdefault((r.profile, r.controller.kind, r.controller.kp), []).append(r)
-    cell = max(groups, key=lambda c: sum(r.result.switchings for r in groups[c]))
-    rows = groups[cell]
+    cell, rows = trace_cell(records)
+    short = [r.label for r in rows if len(r.result.time_s) < 3]
+    if short:
+        raise ValueError(f"runs {', '.join(short)} carry no trace (only {len(rows[0].result.time_s)} samples): "
+                         "solve them again with their trace (gearbench.runner.retrace) before drawing them")
     n = plant.gear.ratio
     fig, axes = plt.subplots(len(rows), 2, figsize=(12, 1.9 * len(rows) + 0.8), sharex=True, squeeze=False)
     for (ax1, ax2), r in zip(axes, rows):
@@ -139,7 +153,9 @@ def compensator_trace_figure(records, plant, title: str = ""):
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
     prof, kind, kp = cell
-    fig.suptitle(title or f"{prof}, {_name(kind, kp)}: the cell with the most voltage sign changes")
+    dt = rows[0].result.time_s[1] - rows[0].result.time_s[0]
+    fig.suptitle(title or f"{prof}, {_name(kind, kp)}: the cell with the most voltage sign changes "
+                          f"(traces sampled every {dt * 1e3:.3g} ms)")
     fig.tight_layout()
     return fig, cell
 

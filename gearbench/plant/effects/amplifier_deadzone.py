@@ -29,6 +29,7 @@ def _scale(plant, values):
 class AmplifierDeadzone(Effect):
     """Amplifier dead zone: small commands do not reach the motor."""
     name = "amplifier_deadzone"
+    signature = "voltage lost in a dead zone"
     acts_on = "voltage"
     params = (Param("threshold", "V", 0.0, 1e3, _scale, "command below which the output is 0"),)
 

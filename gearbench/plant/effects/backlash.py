@@ -23,6 +23,7 @@ def _clearance_scale(plant, values):
 class Backlash(Effect):
     """The gear's clearance (total, at the output)."""
     name = "backlash"
+    signature = "lost motion"
     acts_on = "plant structure"
     params = (
         Param("backlash_deg", "deg", 0.0, 90.0, _clearance_scale, "total clearance at the output gear"),

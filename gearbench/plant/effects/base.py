@@ -8,6 +8,9 @@ as ``{type: NAME, <parameters>}``.  It declares
   ``"voltage"``, ``"measured signal"``, ``"plant structure"``);
 * ``params``: its numeric parameters (:class:`Param`: unit, bounds for fitting,
   typical scale), and ``options``: its string choices (``location``, ``signal``);
+* ``signature``: what a record shows when the model lacks it, a key of
+  :data:`gearbench.identify.evidence.SIGNATURES` (``"sign of the speed"`` for
+  Coulomb friction, ``"a lag"`` for a delay, ...): diagnose's explanations measure it;
 
 and implements one of
 
@@ -57,6 +60,7 @@ class Effect:
     """Base class of the effects; see the module docstring."""
     name: ClassVar[str] = ""
     acts_on: ClassVar[str] = ""
+    signature: ClassVar[str] = ""
     params: ClassVar[tuple[Param, ...]] = ()
     options: ClassVar[dict[str, tuple[str, ...]]] = {}
     defaults: ClassVar[dict[str, Any]] = {}

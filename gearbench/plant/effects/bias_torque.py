@@ -19,6 +19,7 @@ def _scale(plant, values):
 class BiasTorque(Effect):
     """A constant torque (or carriage force) on the load."""
     name = "bias_torque"
+    signature = "a constant"
     acts_on = "load torque"
     options = {"location": ("load", "carriage")}
     params = (Param("torque", "N m (N at the carriage: force)", -1e6, 1e6, _scale,

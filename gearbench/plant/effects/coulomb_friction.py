@@ -32,6 +32,7 @@ def torque(w, eps, t_pos, t_neg):
 class CoulombFriction(Effect):
     """Constant-magnitude (Coulomb) friction opposing motion, sticking below it."""
     name = "coulomb_friction"
+    signature = "sign of the speed"
     acts_on = "motor or load torque"
     options = {"location": LOCATIONS}
     params = (

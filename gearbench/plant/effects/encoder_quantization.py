@@ -29,6 +29,7 @@ def quantum(values, plant) -> float:
 class EncoderQuantization(Effect):
     """A measured angle rounded to whole encoder counts."""
     name = "encoder_quantization"
+    signature = "steps of one count"
     acts_on = "measured signal"
     options = {"signal": SIGNALS}
     params = (Param("counts_per_rev", "counts/rev", 1.0, 1e9, 1000.0,

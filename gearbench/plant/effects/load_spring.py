@@ -28,6 +28,7 @@ def _stiffness_scale(plant, values):
 class LoadSpring(Effect):
     """A linear spring pulling the load back to a rest angle."""
     name = "load_spring"
+    signature = "position"
     acts_on = "load torque"
     params = (
         Param("stiffness", "N m/rad", 0.0, 1e12, _stiffness_scale, "spring rate at the output shaft"),

@@ -34,6 +34,7 @@ def _pinion_scale(plant, values):
 class ShaftCompliance(Effect):
     """A torsional shaft between rotor and pinion."""
     name = "shaft_compliance"
+    signature = "acceleration"
     acts_on = "plant structure"
     params = (
         Param("stiffness", "N m/rad", 1e-12, 1e15, _stiffness_scale, "torsional stiffness"),

@@ -38,6 +38,7 @@ def _stribeck_speed(plant, values):
 class StribeckFriction(Effect):
     """Stribeck friction: breakaway above the Coulomb level, decaying with speed."""
     name = "stribeck_friction"
+    signature = "stick and breakaway"
     acts_on = "motor or load torque"
     options = {"location": LOCATIONS}
     params = (

@@ -22,6 +22,7 @@ def torque(w, c_pos, c_neg):
 class ViscousFriction(Effect):
     """Viscous friction, proportional to speed."""
     name = "viscous_friction"
+    signature = "speed"
     acts_on = "motor or load torque"
     options = {"location": LOCATIONS}
     params = (

@@ -6,23 +6,24 @@ defaults), diagnosed over the whole library; the table gives the verdict, the
 main parameter against the truth, the error after adding it against the noise
 floor, and the time.  ``tests/test_diagnose.py`` asserts the same cases.
 
-    python -m gearbench.studies.hidden_effects --results results
+    python -m studies.hidden_effects --results results
 """
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
 
-from ..experiment.files import load_plant
-from ..identify.diagnose import diagnose
-from ..identify.replay import Replay
-from ..identify.synth import excitation, synthesize
-from ..plant.effects import AddedEffect
-from ..report.io import write_text_atomic
+import click
 
-PLANTS = Path(__file__).resolve().parents[2] / "experiments" / "plants"
+from gearbench.experiment.files import load_plant
+from gearbench.identify.diagnose import diagnose
+from gearbench.identify.replay import Replay
+from gearbench.identify.synth import excitation, synthesize
+from gearbench.plant.effects import AddedEffect
+from gearbench.report.io import write_text_atomic
+
+PLANTS = Path(__file__).resolve().parents[1] / "experiments" / "plants"
 NOISE = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}
 DURATION_S = 3.0
 SEED = 3
@@ -67,21 +68,24 @@ def case(name: str) -> dict:
             "reason": d.reason}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--results", type=Path, default=Path("results"))
-    args = ap.parse_args()
+@click.command()
+@click.option("--results", "results_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("results"), show_default=True, help="Output folder.")
+def main(results_dir: Path) -> None:
+    """Every effect of the library hidden in a record, and what diagnose makes of it.
+
+    Writes RESULTS/hidden_effects.md and RESULTS/hidden_effects.json."""
     rows = []
     for name in HIDDEN:
         r = case(name)
         rows.append(r)
-        print(f"{name}: verdict {r['verdict']}, {r['main_parameter']} {r['fitted']} (truth "
+        click.echo(f"{name}: verdict {r['verdict']}, {r['main_parameter']} {r['fitted']} (truth "
               f"{r['truth'][r['main_parameter']]}), error {r['error']:.4g} / noise {r['noise_floor']:.4g} "
-              f"{r['unit']}, {r['wall_s']:.1f} s", flush=True)
+              f"{r['unit']}, {r['wall_s']:.1f} s")
     md = ["# Hidden effects: what diagnose finds", "",
           f"Each effect hidden in {DURATION_S:g} s of open-loop voltage steps on the bench rig, noise "
           + ", ".join(f"{k} {v:g}" for k, v in NOISE.items()) + f", seed {SEED}; the whole library "
-          "diagnosed (`python -m gearbench.studies.hidden_effects`).", "",
+          "diagnosed (`python -m studies.hidden_effects`).", "",
           "| hidden | verdict | parameter | truth | fitted | error / noise floor | runner-up | time (s) |",
           "|---|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -89,8 +93,8 @@ def main() -> None:
         fitted = "—" if r["fitted"] is None else f"{r['fitted']:.4g}"
         md.append(f"| {r['effect']} | {r['verdict']} | {r['main_parameter']} | {truth:g} | {fitted} | "
                   f"{r['error'] / r['noise_floor']:.3g} | {r['runner_up']} | {r['wall_s']:.1f} |")
-    write_text_atomic(args.results / "hidden_effects.md", "\n".join(md) + "\n")
-    write_text_atomic(args.results / "hidden_effects.json", json.dumps(rows, indent=1, default=str) + "\n")
+    write_text_atomic(results_dir / "hidden_effects.md", "\n".join(md) + "\n")
+    write_text_atomic(results_dir / "hidden_effects.json", json.dumps(rows, indent=1, default=str) + "\n")
 
 
 if __name__ == "__main__":

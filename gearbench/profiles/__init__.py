@@ -1,6 +1,6 @@
 """Set-point profiles: piecewise-linear segments, stored as data, composable by sum.
 
-A profile file (YAML, under ``profiles/``) is either a list of segments::
+A profile file (YAML) is either a list of segments::
 
     name: profile1
     duration_s: 10.0
@@ -24,10 +24,11 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from .experiment.files import is_file
-from .simulate import Segments
+from ..experiment.files import is_file
+from ..simulate import Segments
 
-PROFILE_DIR = Path(__file__).resolve().parent.parent / "profiles"
+PROFILE_DIR = Path(__file__).resolve().parent
+"""The thesis's three profiles (``profile1`` ... ``profile3``), shipped with the package."""
 SEGMENT_KEYS = {"start_s", "value_deg", "slope_deg_per_s"}
 
 
@@ -40,7 +41,30 @@ class Profile:
     """Piecewise-linear set point in degrees and seconds.
 
     On ``[start_s[k], start_s[k+1])`` the set point is
-    ``value_deg[k] + slope_deg_per_s[k] (t - start_s[k])``.
+    ``value_deg[k] + slope_deg_per_s[k] (t - start_s[k])``.  Made by
+    :func:`load_profile` or ``gearbench.setpoint`` (which check it).
+
+    Parameters
+    ----------
+    name : str
+        Shown in tables and titles.
+    start_s : tuple of float
+        Start of each segment, s (the first 0, strictly increasing).
+    value_deg : tuple of float
+        Value at each segment's start, deg.
+    slope_deg_per_s : tuple of float
+        Slope of each segment, deg/s.
+    duration_s : float
+        Length of a run on this profile, s.
+    description : str
+        Free text.
+
+    Examples
+    --------
+    >>> from gearbench import load_profile
+    >>> p1 = load_profile("profile1")
+    >>> p1.duration_s, float(p1(10.0))
+    (10.0, 0.0)
     """
     name: str
     start_s: tuple
@@ -100,14 +124,45 @@ class Profile:
                        self.description)
 
 
-def load_profile(ref: str | Path, search_dir: Path | None = None, _summing: tuple = ()) -> Profile:
-    """Load a profile by name (``profile1`` from ``profiles/``) or by path (YAML or CSV)."""
+def load_profile(ref: str | Path, search_dir: Path | None = None) -> Profile:
+    """Load a profile by path (YAML or CSV), or by name: a file in ``search_dir``, a built-in
+    (``profile1`` ... ``profile3``, the thesis's) or a file in the working directory.
+
+    Parameters
+    ----------
+    ref : str or Path
+        A name (``profile1``: ``<name>.yaml``) or a file path.
+    search_dir : Path, optional
+        Folder searched first; then the built-in profiles and the working directory.
+
+    Returns
+    -------
+    Profile
+        In degrees and seconds; ``.segments()`` gives it in SI for the solver.
+
+    Raises
+    ------
+    ProfileError
+        Naming the file and the key (or row) that is wrong.
+
+    Examples
+    --------
+    >>> from gearbench import load_profile
+    >>> p3 = load_profile("profile3")
+    >>> p3.name, len(p3.steps())
+    ('profile3', 4)
+    """
+    return _load(ref, search_dir, ())
+
+
+def _load(ref, search_dir: Path | None, summing: tuple) -> Profile:
+    """:func:`load_profile`; ``summing``: the files whose ``sum`` led here (a loop is an error)."""
     if not isinstance(ref, (str, Path)) or not str(ref).strip():
-        raise ProfileError(f"{_summing[-1] if _summing else 'profile'}: a profile is named by a "
+        raise ProfileError(f"{summing[-1] if summing else 'profile'}: a profile is named by a "
                            f"non-empty string (a name or a path), got {ref!r}")
     path = _resolve(ref, search_dir)
-    if path.resolve() in _summing:
-        raise ProfileError(f"{path}: the profile sums itself ({' -> '.join(map(str, _summing))} -> {path})")
+    if path.resolve() in summing:
+        raise ProfileError(f"{path}: the profile sums itself ({' -> '.join(map(str, summing))} -> {path})")
     if path.suffix.lower() == ".csv":
         return _load_csv(path)
     try:
@@ -130,11 +185,11 @@ def load_profile(ref: str | Path, search_dir: Path | None = None, _summing: tupl
         parts = data["sum"]
         if not isinstance(parts, list) or len(parts) < 2:
             raise ProfileError(f"{path}: sum must list two or more profiles")
-        chain = _summing + (path.resolve(),)
+        chain = summing + (path.resolve(),)
         loaded = []
         for i, part in enumerate(parts):
             try:
-                loaded.append(load_profile(part, path.parent, chain))
+                loaded.append(_load(part, path.parent, chain))
             except ProfileError as exc:
                 raise ProfileError(f"{path}: sum[{i}]: {exc}") from None
         total = loaded[0]

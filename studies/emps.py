@@ -2,12 +2,12 @@
 
 Data and reference models: A. Janot, M. Gautier, M. Brunot, "Data Set and Reference Models of
 EMPS", Workshop on Nonlinear System Identification Benchmarks, Eindhoven, April 2019, HAL
-hal-02178709 (``EMPS_CITATION``).  The data are not shipped with gearbench; the default
-location is ``shared/anchors/data/emps`` beside the repository.
+hal-02178709 (``EMPS_CITATION``).  The two records are in the repository, ``data/emps/``
+(provenance and terms in its README); ``--data-dir`` points elsewhere.
 
-Run::
+Run from the repository's root (``make run`` does)::
 
-    python -m gearbench.studies.emps --results results [--data-dir PATH]
+    python -m studies.emps --results results [--data-dir PATH]
 
 It writes ``results/emps.md``, ``results/emps.json`` and PNG figures under ``results/emps/``
 (atomically).  What it does, in the order of the report:
@@ -39,40 +39,41 @@ It writes ``results/emps.md``, ``results/emps.json`` and PNG figures under ``res
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
-import scipy.signal as ss
+import click
 
-from ..control.sampled import SampledPV
-from ..experiment.controller_file import load_controller
-from ..experiment.files import load_plant
-from ..identify.diagnose import diagnose
-from ..identify.fit import Free, Scorer, fit, get_value
-from ..identify.replay import Replay, ReplayError
-from ..measure import idim
-from ..measure.data import Measurement, from_frame
-from ..measure.emps import EMPS_CITATION, read_emps, to_measurement_frame
-from ..measure.phases import PHASES, classify_phases, error_shares
-from ..plant.components import Plant
-from ..plant.effects import AddedEffect
-from ..report.compare import comparison_figure, ladder_figure
-from ..report.io import save_figure_atomic, write_text_atomic
+from gearbench.control.sampled import SampledPV
+from gearbench.experiment.controller_file import load_controller
+from gearbench.experiment.files import load_plant
+from gearbench.identify.diagnose import diagnose
+from gearbench.identify import uncertainty
+from gearbench.identify.fit import Free, Scorer, fit, get_value, set_values
+from gearbench.identify.uncertainty import central_jacobian
+from gearbench.identify.replay import Replay, ReplayError
+from gearbench.measure import idim
+from gearbench.measure.data import Measurement, from_frame
+from gearbench.measure.emps import EMPS_CITATION, read_emps, to_measurement_frame
+from gearbench.measure import phases
+from gearbench.measure.phases import PHASES, classify_phases, error_shares
+from gearbench.plant.components import Plant
+from gearbench.plant.effects import AddedEffect
+from gearbench.report.compare import comparison_figure, ladder_figure
+from gearbench.report.io import save_figure_atomic, write_text_atomic
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_DATA_DIR = Path(__file__).resolve().parents[3] / "shared/anchors/data/emps"
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_DATA_DIR = REPO / "data" / "emps"
 RUN_FILES = {"train": ("DATA_EMPS.mat", "emps_train_DATA_EMPS.csv"),
              "validation": ("DATA_EMPS_PULSES.mat", "emps_test_DATA_EMPS_PULSES.csv")}
 BARE_PLANT = REPO / "experiments" / "plants" / "emps_bare.yaml"
 CONTROLLER_FILE = REPO / "experiments" / "controllers" / "emps.yaml"
-COMMAND = "python -m gearbench.studies.emps --results results"
+COMMAND = "python -m studies.emps --results results"
 
 PAPER_STRUCTURE = ("viscous_friction", "coulomb_friction", "bias_torque")
 FREE_PLANT = ("leadscrew.mass",)
@@ -255,23 +256,14 @@ def score(plant: Plant, data: Measurement, ctrl: SampledPV) -> float:
     return rel_pct(data.input, simulate(plant, data, ctrl)["drive_force_N"])
 
 
-def kinematics(position_m, ts: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Filtered position (m), velocity (m/s), acceleration (m/s^2) by the paper's IDIM chain:
-    4th-order Butterworth at 100 Hz with MATLAB-style ``filtfilt``, central differences twice."""
-    b, a = ss.butter(idim.BUTTER_ORDER, idim.BUTTER_CUTOFF_HZ / (0.5 / ts))
-    q_f = idim.filtfilt_matlab(b, a, np.asarray(position_m, dtype=float))
-    qd = idim.diffcent(q_f, ts)
-    return q_f, qd, idim.diffcent(qd, ts)
-
-
 def signal_pairs(data: Measurement, sim: Mapping[str, np.ndarray]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """(measured, simulated) of position (m), velocity (m/s), acceleration (m/s^2) and
-    force (N), every sample; velocity and acceleration by :func:`kinematics` on both."""
+    force (N), every sample; velocity and acceleration by :func:`gearbench.measure.idim.kinematics` on both."""
     ts = data.sample_time_s
     q_m = np.asarray(data.signals["motor_position_mm"], dtype=float) / 1000.0
     q_s = np.asarray(sim["motor_position_mm"], dtype=float) / 1000.0
-    _, v_m, a_m = kinematics(q_m, ts)
-    _, v_s, a_s = kinematics(q_s, ts)
+    _, v_m, a_m = idim.kinematics(q_m, ts)
+    _, v_s, a_s = idim.kinematics(q_s, ts)
     return {"position": (q_m, q_s), "velocity": (v_m, v_s), "acceleration": (a_m, a_s),
             "force": (np.asarray(data.input, dtype=float), np.asarray(sim["drive_force_N"], dtype=float))}
 
@@ -319,27 +311,17 @@ def _free_paper_name(plant: Plant, f: Free) -> str:
 
 def standard_errors(replay: Replay, plant: Plant, frees: Sequence[Free],
                     rel_step: float = 1e-4) -> dict[str, float]:
-    """Standard errors of ``frees`` at ``plant`` (paper names and units): the fit's
-    ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS/(n - k)`` of the noise-weighted force residual,
+    """Standard errors of ``frees`` at ``plant`` (paper names and units), by
+    :func:`gearbench.identify.uncertainty.standard_errors` on the noise-weighted force residual
     with a central-difference Jacobian.  They assume white residuals; the closed-loop
     residual is strongly correlated, so they are optimistic (a lower bound)."""
-    from ..identify.fit import set_values
     scorer = Scorer(replay)
     x0 = np.array([get_value(plant, f) for f in frees])
     r0 = scorer.weighted(replay.run(plant))
-    cols = []
-    for j, f in enumerate(frees):
-        h = rel_step * max(abs(x0[j]), f.scale)
-        xp, xm = x0.copy(), x0.copy()
-        xp[j] += h
-        xm[j] -= h
-        rp = scorer.weighted(replay.run(set_values(plant, list(frees), xp)))
-        rm = scorer.weighted(replay.run(set_values(plant, list(frees), xm)))
-        cols.append((rp - rm) / (2 * h))
-    J = np.column_stack(cols)
-    n, k = r0.size, len(frees)
-    cov = np.linalg.inv(J.T @ J) * float(r0 @ r0) / max(n - k, 1)
-    return {_free_paper_name(plant, f): float(math.sqrt(max(c, 0.0))) for f, c in zip(frees, np.diag(cov))}
+    jac = central_jacobian(lambda x: scorer.weighted(replay.run(set_values(plant, list(frees), x))), x0,
+                           [rel_step * max(abs(x), f.scale) for x, f in zip(x0, frees)])
+    se = uncertainty.standard_errors(jac, float(r0 @ r0), r0.size)
+    return {_free_paper_name(plant, f): float(e) for f, e in zip(frees, se)}
 
 
 def compare_to_paper(params: Mapping[str, float], paper: Mapping[str, float] = PAPER_PARAMS,
@@ -378,7 +360,7 @@ def run_ladder(runs: Runs, ctrl: SampledPV, only: tuple[str, ...] = PAPER_STRUCT
              "step_params": {}, "step_stderr": {}, "bic": d.baseline.bic, "model": []}]
     for s in d.ladder:
         p = plant_from_model(s.model, s.plant_params, bare)
-        rows.append({"effect": s.effect, "options": s.options,
+        rows.append({"effect": s.effect, "action": s.action, "options": s.options,
                      "train_force_error_pct": s.relative_error_pct, "rms_force_error_N": s.error,
                      "params": paper_params(p), "step_params": s.params, "step_stderr": s.stderr,
                      "bic": s.bic, "model": s.model})
@@ -455,19 +437,13 @@ def idim_results(runs: Runs) -> dict:
 
 # ----------------------------------------------------------------------------- 5. where it fails
 def pulse_edges(data: Measurement) -> np.ndarray:
-    """Sample indices where the disturbance (pulse) voltage changes (empty without pulses)."""
-    if data.disturbance_V is None:
-        return np.array([], dtype=int)
-    return np.flatnonzero(np.diff(np.asarray(data.disturbance_V, dtype=float)) != 0.0) + 1
+    """Sample indices where the record's pulse (disturbance) voltage changes."""
+    return phases.pulse_edges(data.disturbance_V)
 
 
 def edge_mask(data: Measurement, window_s: float = EDGE_WINDOW_S) -> np.ndarray:
     """True in the ``window_s`` after each pulse edge."""
-    t = data.time_s
-    mask = np.zeros(t.size, dtype=bool)
-    for i in pulse_edges(data):
-        mask |= (t >= t[i]) & (t < t[i] + window_s)
-    return mask
+    return phases.edge_mask(data.time_s, data.disturbance_V, window_s)
 
 
 def where_it_fails(data: Measurement, sim: Mapping[str, np.ndarray],
@@ -531,7 +507,7 @@ def start_speed(data: Measurement, plant: Plant, ctrl: SampledPV, half: int = 20
     ``half + 1`` samples of the measured position: a straight line (the speed about
     ``half/2`` samples in, biased by the acceleration) and a quadratic (the speed at t = 0),
     and the measured acceleration there (m/s^2)."""
-    from .. import layout as L
+    from gearbench import layout as L
     t = data.time_s[:half + 1] - data.time_s[0]
     q = np.asarray(data.signals["motor_position_mm"][:half + 1], dtype=float) / 1000.0
     lin = np.polyfit(t, q, 1)
@@ -714,7 +690,8 @@ def write_figures(out_dir: Path, runs: Runs, sims: Mapping[str, Mapping], labels
         names.append(name)
 
     for key, lad in ladders.items():
-        steps = [{"effect": r["effect"], "error": r["train_force_error_pct"]} for r in lad["rows"]]
+        steps = [{"effect": r["effect"], "error": r["train_force_error_pct"], "action": r.get("action", "add")}
+                 for r in lad["rows"]]
         save(ladder_figure(steps, unit="% closed-loop force error, train",
                            title=f"EMPS ladder ({key})"), f"ladder_{key}.png")
     for run in ("train", "validation"):
@@ -797,7 +774,7 @@ def run_study(results: str | Path, data_dir: str | Path | None = None, workers: 
               log: Callable[[str], None] | None = None) -> dict:
     """Run the whole study and write ``results/emps.md``, ``results/emps.json`` and
     ``results/emps/*.png``.  Returns the JSON object."""
-    log = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    log = log or (lambda s: click.echo(s, err=True))
     t_start = time.perf_counter()
     results = Path(results)
     runs = load_runs(data_dir)
@@ -876,7 +853,7 @@ def _delay_json(d: dict) -> dict:
     lad = d["ladder"]
     return {
         "delay_samples": d["delay_samples"],
-        "ladder": [{"effect": r["effect"], "train_force_error_pct": r["train_force_error_pct"],
+        "ladder": [{"effect": r["effect"], "action": r.get("action", "add"), "train_force_error_pct": r["train_force_error_pct"],
                     "rms_force_error_N": r["rms_force_error_N"], "params": r["params"],
                     "step_stderr": r["step_stderr"], "bic": r["bic"]} for r in lad["rows"]],
         "ladder_candidates_first_step": lad["candidates"],
@@ -903,7 +880,7 @@ def build_summary(runs: Runs, by_delay: dict, delays: Sequence[int], lib: dict |
         "benchmark": "EMPS",
         "citation": EMPS_CITATION,
         "command": COMMAND,
-        "data_files": {k: str(v) for k, v in runs.files.items()},
+        "data_files": {k: _repo_relative(v) for k, v in runs.files.items()},
         "delay_samples": delays[0],
         "error_measure": "100 ||y - y_sim|| / ||y|| over the whole record (closed-loop replay driven by "
                          "the recorded set point and pulses), unless a table says from sample 49",
@@ -920,7 +897,7 @@ def build_summary(runs: Runs, by_delay: dict, delays: Sequence[int], lib: dict |
     }
     if lib is not None:
         out["library_ladder"] = {
-            "ladder": [{"effect": r["effect"], "options": r["options"],
+            "ladder": [{"effect": r["effect"], "action": r.get("action", "add"), "options": r["options"],
                         "train_force_error_pct": r["train_force_error_pct"], "params": r["params"],
                         "step_params": r["step_params"], "bic": r["bic"]} for r in lib["rows"]],
             "candidates_first_step": lib["candidates"], "verdict": lib["verdict"],
@@ -1220,27 +1197,38 @@ def compliance_verdict(comp: dict, rigid_val: Mapping[str, float]) -> str:
     return "**Compliance test:** " + "; ".join(parts) + "."
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m gearbench.studies.emps", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--results", default="results", help="output folder (default: results)")
-    ap.add_argument("--data-dir", default=None,
-                    help=f"folder holding DATA_EMPS.mat and DATA_EMPS_PULSES.mat (default: {DEFAULT_DATA_DIR})")
-    ap.add_argument("--workers", type=int, default=None, help="processes for diagnose (default: all cores)")
-    ap.add_argument("--no-library", action="store_true", help="skip the (slow) whole-library ladder")
-    ap.add_argument("--no-compliance", action="store_true", help="skip the compliance test")
-    args = ap.parse_args(argv)
+def _repo_relative(path: Path) -> str:
+    """``path`` relative to the repository when it is inside it (results name no machine's folders)."""
     try:
-        data_files(args.data_dir)
+        return str(Path(path).resolve().relative_to(REPO))
+    except ValueError:
+        return str(path)
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--results", "results_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("results"), show_default=True, help="Output folder.")
+@click.option("--data-dir", type=click.Path(file_okay=False, path_type=Path), default=DEFAULT_DATA_DIR,
+              show_default=True, help="Folder holding DATA_EMPS.mat and DATA_EMPS_PULSES.mat.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Processes for diagnose (default: all cores).")
+@click.option("--no-library", is_flag=True, help="Skip the (slow) whole-library ladder.")
+@click.option("--no-compliance", is_flag=True, help="Skip the compliance test.")
+def main(results_dir: Path, data_dir: Path, workers: int | None, no_library: bool, no_compliance: bool) -> None:
+    """The EMPS study: gearbench's closed-loop identification on real data, beside the published numbers.
+
+    Writes RESULTS/emps.md, RESULTS/emps.json and the figures under RESULTS/emps/.
+    """
+    try:
+        data_files(data_dir)
     except FileNotFoundError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    s = run_study(args.results, args.data_dir, workers=args.workers, library=not args.no_library,
-                  compliance=not args.no_compliance)
-    print(f"wrote {Path(args.results) / 'emps.md'}, {Path(args.results) / 'emps.json'} and "
-          f"{len(s['figures'])} figures: train {s['train_force_error_pct']:.2f} %, validation "
-          f"{s['validation_force_error_pct']:.2f} %")
-    return 0
+        raise click.UsageError(str(exc)) from None
+    s = run_study(results_dir, data_dir, workers=workers, library=not no_library,
+                  compliance=not no_compliance)
+    click.echo(f"wrote {results_dir / 'emps.md'}, {results_dir / 'emps.json'} and "
+               f"{len(s['figures'])} figures: train {s['train_force_error_pct']:.2f} %, validation "
+               f"{s['validation_force_error_pct']:.2f} %")
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()

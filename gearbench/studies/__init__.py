@@ -1,1 +1,0 @@
-"""Studies: scripted comparisons of gearbench models with published measurements and results."""
