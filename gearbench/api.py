@@ -615,10 +615,11 @@ class Comparison:
     def to_dict(self) -> dict:
         """What ``gearbench compare --json`` prints, without the figure paths (JSON-ready)."""
         plain = (str, int, float, bool, list, dict, type(None))
-        extra = {k: v for k, v in self.figures.items() if k not in ("sim", "residuals", "labels", "speed", "position")
-                 and isinstance(v, plain)}
+        extra = {k: v for k, v in self.figures.items() if k not in ("sim", "residuals", "labels", "speed", "position",
+                                                                 "residual_tests") and isinstance(v, plain)}
+        tests = {k: v.to_json() for k, v in self.figures.get("residual_tests", {}).items()}
         return {"plant": self.plant.name, "data": self.data.source, "closed_loop": self.closed_loop,
-                "phases": {}, **extra}
+                "phases": {}, **extra, "residual_tests": tests}
 
     def to_pandas(self) -> pd.DataFrame:
         """One row per compared signal (index ``signal``): unit, RMS and maximum
@@ -974,7 +975,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     >>> import gearbench as gb
     >>> f = gb.fit("experiments/plants/bench_rig.yaml", "experiments/data/bench_rig_hidden.csv", "load_spring")
     >>> f.effect, round(f.error_before, 1), round(f.error_after, 2), f.unit   # RMS of the load angle
-    ('load_spring', 233.9, 19.94, 'deg')
+    ('load_spring', 234.5, 19.94, 'deg')
     """
     from .identify.fit import FitError, Scorer
     where = "fit"

@@ -35,7 +35,6 @@ MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
 AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is explained
 JOINT_TOP = 3              # candidates refitted jointly with the effects already added
-PAIR_TOP = 4               # the best single candidates fitted in pairs when none reaches the noise floor
 GRID = (0.03, 0.1, 0.3, 1.0, 3.0)  # multiples of a parameter's typical value tried before fitting
                                    # (both signs when its bounds allow a negative value)
 
@@ -170,34 +169,6 @@ def _run_candidate(args):
     return try_candidate(*args)
 
 
-def try_pair(replay: Replay, scorer: Scorer, plant: Plant, a: Tried, b: Tried,
-             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Tried:
-    """Fit two candidates jointly (from their single fits' values), with the free plant
-    parameters and the effects numbered in ``refit``: effects that are confounded alone
-    (Coulomb friction and a bias, a spring and a bias) are told apart together.  The
-    result is ``b``'s (its candidate, its parameters) with ``a`` in the model before it."""
-    both = plant.with_effects(AddedEffect(a.candidate.name, {**a.candidate.options, **a.params}),
-                              AddedEffect(b.candidate.name, {**b.candidate.options, **b.params}))
-    n = len(both.effects)
-    frees = Free.effect(both, n - 2) + Free.effect(both, n - 1) + [Free.plant(both, p) for p in free_plant]
-    for i in refit:
-        frees += Free.effect(both, i)
-    try:
-        res = fit(replay, both, frees, scorer)
-    except (ReplayError, ValueError) as exc:
-        return Tried(b.candidate, None, note=f"could not be simulated: {exc}")
-    if not res.converged:
-        return Tried(b.candidate, res, note=res.message)
-    res.k += (a.result.k - len(Free.effect(both, n - 2))) + (b.result.k - len(Free.effect(both, n - 1)))
-    params = {k: v for k, v in res.plant.effects[n - 1].values.items() if not isinstance(v, str)}
-    stderr = {k.split(".", 1)[1]: v for k, v in res.stderr.items() if k.startswith(f"effects[{n - 1}].")}
-    return Tried(b.candidate, res, params, stderr)
-
-
-def _run_pair(args):
-    return try_pair(*args)
-
-
 @dataclass
 class Step:
     """One rung of the ladder: the effect added, its parameters, the error after
@@ -270,47 +241,27 @@ def _rank(tried: list[Tried]) -> list[Tried]:
     return sorted(tried, key=lambda t: (not t.ok, t.result.bic if t.ok else math.inf))
 
 
-def _map(fn, jobs, workers, progress):
-    """``fn`` over ``jobs`` in parallel (``workers`` processes, ``gearbench.workers``), in order."""
+def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
+    """Fit candidates in parallel (``workers`` processes, ``gearbench.workers``); an item of
+    ``cands`` may be ``(candidate, start values)``."""
+    jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
+            for c in cands]
+    jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
     workers = worker_count(workers, len(jobs))
     if workers > 1:
         with process_pool(workers) as pool:
             out = []
-            for t in pool.map(fn, jobs):
+            for t in pool.map(_run_candidate, jobs):
                 out.append(t)
                 if progress:
                     progress(t)
             return out
     out = []
     for j in jobs:
-        out.append(fn(j))
+        out.append(_run_candidate(j))
         if progress:
             progress(out[-1])
     return out
-
-
-def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
-    """Fit candidates in parallel; an item of ``cands`` may be ``(candidate, start values)``."""
-    jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
-            for c in cands]
-    jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
-    return _map(_run_candidate, jobs, workers, progress)
-
-
-def _best_pair(replay, scorer, plant, tried: list[Tried], free_plant, refit, workers) -> tuple[Tried, Tried] | None:
-    """The best joint fit of two of the ``PAIR_TOP`` best single candidates (of different
-    effects), as ``(first, second)``: ``first`` the one of the two with the lower BIC alone,
-    ``second`` the joint fit.  None when fewer than two candidates were fitted."""
-    top = [t for t in tried if t.ok][:PAIR_TOP]
-    pairs = [(a, b) for i, a in enumerate(top) for b in top[i + 1:] if a.candidate.name != b.candidate.name]
-    if not pairs:
-        return None
-    joint = _map(_run_pair, [(replay, scorer, plant, a, b, free_plant, refit) for a, b in pairs], workers, None)
-    fitted = [(j, a) for j, (a, b) in zip(joint, pairs) if j.ok]
-    if not fitted:
-        return None
-    j, a = min(fitted, key=lambda f: f[0].result.bic)
-    return a, j
 
 
 def _accepts(current: FitResult, new: FitResult) -> bool:
@@ -389,13 +340,9 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
 
     Each rung fits every candidate with the effects added so far held (cheap),
     then refits the best ``JOINT_TOP`` jointly with them (the first rung's
-    friction must give back what a later viscous term explains).  When no single
-    candidate reaches the noise floor, the best ``PAIR_TOP`` are also fitted two
-    at a time, and a pair whose BIC is more than ``MIN_BIC_DROP`` below the best
-    single's is added as two rungs (confounded effects: Coulomb friction and a
-    bias, a spring and a bias).  It accepts the best if it pays (``_accepts``),
-    tries the simpler forms of what was added (``_simplify``), and takes out
-    what no longer pays (``_prune``).
+    friction must give back what a later viscous term explains), accepts the
+    best if it pays (``_accepts``), tries the simpler forms of what was added
+    (``_simplify``), and takes out what no longer pays (``_prune``).
 
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
@@ -433,13 +380,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         if step == 0:
             first_tried = tried
         best = tried[0] if tried and tried[0].ok else None
-        pair = None
-        if best is not None and best.result.weighted_rms > AT_NOISE:
-            found = _best_pair(replay, scorer, current, tried, free_plant, added, workers)
-            if (found is not None and found[1].result.bic < best.result.bic - MIN_BIC_DROP
-                    and _accepts(current_res, found[1].result)):
-                pair = found
-        if pair is None and (best is None or not _accepts(current_res, best.result)):
+        if best is None or not _accepts(current_res, best.result):
             if best is None:
                 gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
             else:
@@ -459,25 +400,8 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                           f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
                           f"{unit}) and {gain}; the missing physics is not in the library")
             break
-        new = (len(current.effects),)
-        if pair is not None:
-            first, joint = pair
-            r = first.result
-            ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr, r.error,
-                               scorer.relative_pct(r.sim), r.bic, [e.to_dict() for e in r.plant.effects],
-                               {p: get_value(r.plant, Free.plant(r.plant, p)) for p in free_plant},
-                               explain(replay, scorer, current_res, first)
-                               + f" It is the first of a pair fitted jointly: with {joint.candidate.label()} the "
-                               f"error falls to {joint.result.error:.4g} {unit}, a BIC "
-                               f"{best.result.bic - joint.result.bic:.1f} below the best single effect "
-                               f"({best.candidate.label()}, {best.result.error:.4g} {unit}); alone each explains "
-                               "only part of the residual."))
-            rungs.append(len(ladder) - 1)
-            text = explain(replay, scorer, r, joint)
-            best, new = joint, (len(current.effects), len(current.effects) + 1)
-        else:
-            text = explain(replay, scorer, current_res, best)
-        fitted, notes = _simplify(replay, scorer, best.result, added + new, free_plant)
+        text = explain(replay, scorer, current_res, best)
+        fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
                            [e.to_dict() for e in fitted.plant.effects],
