@@ -128,7 +128,10 @@ def emps(data: Path, output: Path, as_json: bool) -> None:
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Measurement CSV to write (atomically), in gearbench's columns and units.")
 @column_options()
-def csv_(data: Path, output: Path, columns, units, columns_file) -> None:
+@click.option("--json", "as_json", is_flag=True,
+              help="Print {output, rows, duration_s, sample_rate_hz, columns, mapped, left_out} as one JSON "
+                   "object on stdout.")
+def csv_(data: Path, output: Path, columns, units, columns_file, as_json: bool) -> None:
     """Import a CSV with its own column names and units as a measurement CSV.
 
     Every column is checked as gearbench checks its own files (finite numbers, strictly
@@ -151,6 +154,11 @@ def csv_(data: Path, output: Path, columns, units, columns_file) -> None:
         write_measurement(m, output, float_format=FLOAT_FORMAT)
     except (OSError, ValueError) as exc:
         _fail(exc)
+    if as_json:
+        echo_json({"output": str(output), "rows": len(m.time_s), "duration_s": m.duration_s,
+                   "sample_rate_hz": 1.0 / m.sample_time_s, "columns": list(m.columns()), "mapped": list(used),
+                   "left_out": list(ignored)})
+        return
     click.echo(f"wrote {output}: {len(m.time_s)} rows, {m.duration_s:.6g} s at {1.0 / m.sample_time_s:.6g} Hz "
                f"(median), columns {', '.join(m.columns())}")
     for line in used:

@@ -245,6 +245,17 @@ def test_import_csv_writes_the_canonical_file(raw, canonical, tmp_path):
     same_record(read_measurement(out), read_measurement(canonical), rtol=1e-11)
 
 
+def test_import_csv_json(raw, tmp_path):
+    out = tmp_path / "imported.csv"
+    r = CliRunner().invoke(main, ["import", "csv", str(raw), "-o", str(out), "--columns", MAPPING, "--units",
+                                  UNITS, "--json"])
+    assert r.exit_code == 0, r.output
+    j = json.loads(r.stdout)
+    assert j["output"] == str(out) and j["rows"] == 1501 and j["left_out"] == ["temp"]
+    assert j["columns"] == pd.read_csv(out).columns.tolist()
+    assert any("current_A <- 'i' in mA" in line for line in j["mapped"])
+
+
 def test_import_csv_with_a_mapping_file(raw, canonical, tmp_path):
     cmap = tmp_path / "map.yaml"
     cmap.write_text("columns: {time: t, voltage: u, motor_angle: phi, load_angle: theta_out, current: i}\n"
