@@ -106,6 +106,14 @@ def _kill_workers(pool: ProcessPoolExecutor) -> None:
         with contextlib.suppress(OSError, ValueError, AttributeError):
             if proc.is_alive():
                 proc.kill()
+    # A worker killed while it wrote a result leaves half a message in the result pipe, and
+    # the executor's manager thread would wait for the rest for ever (this process holds the
+    # pipe's write end too, so no end-of-file comes).  With that end closed here (the workers'
+    # copies close as they die) it reads end-of-file, declares the pool broken and cleans up.
+    writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
+    if writer is not None:
+        with contextlib.suppress(OSError):
+            writer.close()
     pool.shutdown(wait=True, cancel_futures=True)
 
 
