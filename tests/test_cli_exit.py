@@ -219,18 +219,9 @@ def test_compare_diagnose_fit_json(record, tmp_path):
     assert only_json(res)["converged"] is False and not never.exists()
 
 
-def _emps_dir() -> Path | None:
-    for parent in REPO.parents:
-        d = parent / "shared" / "anchors" / "data" / "emps"
-        if (d / "DATA_EMPS_PULSES.mat").is_file():
-            return d
-    return None
-
-
-@pytest.mark.skipif(_emps_dir() is None, reason="EMPS data not found")
 def test_import_emps_json(tmp_path):
     out = tmp_path / "emps.csv"
-    res = invoke("import", "emps", _emps_dir() / "DATA_EMPS_PULSES.mat", "-o", out, "--json")
+    res = invoke("import", "emps", REPO / "data" / "emps" / "DATA_EMPS_PULSES.mat", "-o", out, "--json")
     assert res.exit_code == 0, res.output
     data = only_json(res)
     assert data["rows"] == 24841 and data["output"] == str(out) and "time_s" in data["columns"]

@@ -12,7 +12,8 @@ from conftest import DATA, REPO
 # A path that leaves the checkout: the steering folder beside the repository, a machine's own
 # folders, or a climb out of the repository from a file's location.
 OUTSIDE = re.compile(r"\.\./shared|\bshared/(anchors|cases|thesis)\b|/work/|/root/|/home/\w+/"
-                     r"|parents\[[2-9]\]\s*/\s*[\"']shared")
+                     r"|parents\[[2-9]\]\s*/\s*[\"']shared"
+                     r"|[\"']shared[\"']\s*/\s*[\"'](anchors|cases|thesis)")
 
 
 def tracked_files() -> list[str]:
@@ -45,7 +46,8 @@ def test_no_tracked_file_refers_outside_the_checkout():
 def test_the_pattern_catches_what_it_is_for():
     for bad in ('DATA = Path(__file__).resolve().parents[2] / "shared" / "anchors"',
                 "see ../shared/anchors/modelica/README.md", '"/work/shared/anchors/data/emps/DATA_EMPS.mat"',
-                "python -m x --data-dir shared/cases/p01"):
+                "python -m x --data-dir shared/cases/p01",
+                'd = parent / "shared" / "anchors" / "data" / "emps"'):
         assert OUTSIDE.search(bad), bad
     for good in ('DATA = REPO / "data" / "emps"', "index layout shared by the packer", "data/cases/p01/data.csv"):
         assert not OUTSIDE.search(good), good
