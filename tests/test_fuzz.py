@@ -766,6 +766,18 @@ def test_a_huge_integer_is_named_with_its_key(tmp_path):
         load_plant(path)
 
 
+def test_values_too_extreme_to_compute_with_are_named(tmp_path):
+    """Each value passes alone; 5e-324 ohm makes the typical current infinite (found by the fuzz)."""
+    path = tmp_path / "plant.yaml"
+    doc = read_doc(REPO / "experiments/plants/bench_rig.yaml")
+    doc["motor"]["resistance"] = 5e-324
+    path.write_text(dump(doc))
+    with pytest.raises(ConfigError, match=r"plant\.yaml: the plant: its values are too extreme to compute with: "
+                                          r"the typical current \(motor\.max_voltage / motor\.resistance, A\) "
+                                          r"and mesh deflection \(rad\) come out 0 or infinite"):
+        load_plant(path)
+
+
 @pytest.mark.parametrize("data", [bytes(range(256)) * 3, b"time_s,voltage_V,load_angle_deg\n0,1,\xff\xfe\n",
                                   "time_s,voltage_V,load_angle_deg\n0,1,2\n".encode("utf-16")])
 def test_a_binary_csv_names_the_file(tmp_path, data):

@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+import numpy as np
 import yaml
 
 from ..control.controllers import COMPENSATORS, Controller
@@ -31,7 +32,8 @@ from ..simulate import METHODS, SolverOptions
 from ..plant.effects import REGISTRY as EFFECTS
 from ..plant.effects.base import AddedEffect
 from ..plant.effects.location import key as effect_key
-from ..plant.pack import pack_plant
+from ..plant.pack import pack_plant, tolerance_scales
+from .. import layout as L
 from .schema import Choice, Number, Text, check_mapping, index, join, show, unknown_key
 
 CONTACT_LAWS = ("dubowsky", "elasto_backlash")
@@ -357,7 +359,30 @@ def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None,
             pack_plant(replace(plant, effects=effects[:i + 1]))
         except ValueError as exc:
             problems.append(f"{index(join(where, 'effects'), i)} ({e.name}): {exc}")
+    if not problems:
+        problems += _extreme_problems(plant, where)
     return (None, problems) if problems else (plant, [])
+
+
+_SCALES = {L.X_I: "current (motor.max_voltage / motor.resistance, A)", L.X_WM: "motor speed (rad/s)",
+           L.X_PHI: "shaft twist (rad)", L.X_DELTA: "mesh deflection (rad)", L.X_WL: "load speed (rad/s)"}
+
+
+def _extreme_problems(plant: Plant, where: str) -> list[str]:
+    """Values each valid alone but too extreme to compute with together (a resistance of
+    5e-324 ohm makes the typical current infinite): the solver's state scales and the
+    compiled core's parameters must be finite and its scales positive."""
+    scales = tolerance_scales(plant)
+    bad = [name for i, name in _SCALES.items() if not (math.isfinite(scales[i]) and scales[i] > 0)]
+    params = np.delete(pack_plant(plant), L.P_VMAX)  # no drive limit packs as inf, by design
+    if not bad and np.all(np.isfinite(params)):
+        return []
+    if bad:
+        what = f"the typical {' and '.join(bad)} come out 0 or infinite"
+    else:
+        what = "a parameter of the compiled model comes out infinite or NaN"
+    return [f"{where or 'the plant'}: its values are too extreme to compute with: {what}; look for a "
+            "value near 1e-308 or 1e308"]
 
 
 def validate_plant_dict(d: Any, where: str = "") -> list[str]:
