@@ -711,7 +711,7 @@ class DiagnosisReport:
 
     @property
     def verdict(self) -> str | None:
-        """The first effect the ladder added, or None (see ``reason``)."""
+        """The first effect the ladder added that is still in the model at its end, or None (see ``reason``)."""
         return self.diagnosis.verdict
 
     @property
