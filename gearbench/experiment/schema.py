@@ -97,26 +97,28 @@ class Number:
 
     def check(self, value: Any, path: str, problems: list[str]) -> float | int | None:
         """The value as float (int when ``integer``), or None after recording a problem."""
-        bad = f"{path} must be {self.describe()}, got {show(value)}"
+        def bad() -> str:  # built only for a bad value: check runs on every simulate call
+            return f"{path} must be {self.describe()}, got {show(value)}"
+
         if not is_number(value):
-            problems.append(bad)
+            problems.append(bad())
             return None
         try:
             x = float(value)
         except OverflowError:  # an integer beyond the largest float (YAML reads 10**400 exactly)
-            problems.append(f"{bad} (too large for a floating-point number)")
+            problems.append(f"{bad()} (too large for a floating-point number)")
             return None
         if not math.isfinite(x):
-            problems.append(f"{bad} (not a finite number)")
+            problems.append(f"{bad()} (not a finite number)")
             return None
         if self.integer and not x.is_integer():
-            problems.append(bad)
+            problems.append(bad())
             return None
         if self.low is not None and (x < self.low or (self.low_strict and x == self.low)):
-            problems.append(bad)
+            problems.append(bad())
             return None
         if self.high is not None and (x > self.high or (self.high_strict and x == self.high)):
-            problems.append(bad)
+            problems.append(bad())
             return None
         return int(x) if self.integer else x
 
