@@ -297,6 +297,11 @@ def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant
     return res, notes
 
 
+def _model(plant: Plant, free_plant) -> tuple[list, dict]:
+    """A rung's ``model`` (effects as in a plant file) and ``plant_params`` (the free plant values)."""
+    return [e.to_dict() for e in plant.effects], {p: get_value(plant, Free.plant(plant, p)) for p in free_plant}
+
+
 def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> FitResult | None:
     """The model of ``res`` without effect ``i``, the other ladder effects (numbers
     ``first`` on) and the free plant parameters refitted from where they are."""
@@ -404,8 +409,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
-                           [e.to_dict() for e in fitted.plant.effects],
-                           {p: get_value(fitted.plant, Free.plant(fitted.plant, p)) for p in free_plant},
+                           *_model(fitted.plant, free_plant),
                            text))
         rungs.append(len(ladder) - 1)
         for i, old, new, gain in notes:
@@ -422,8 +426,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
             opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
             ladder.append(Step(gone.name, opts, {k: v for k, v in gone.values.items() if not isinstance(v, str)},
                                {}, without.error, scorer.relative_pct(without.sim), without.bic,
-                               [e.to_dict() for e in without.plant.effects],
-                               {p: get_value(without.plant, Free.plant(without.plant, p)) for p in free_plant},
+                               *_model(without.plant, free_plant),
                                f"Taken out at step {len(ladder) + 1}: once {best.candidate.label()} is in, "
                                f"{gone.name} no longer pays; refitted without it the error is "
                                f"{without.error:.4g} {unit} against {current_res.error:.4g} {unit}, the BIC "

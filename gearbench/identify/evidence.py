@@ -167,14 +167,13 @@ class Evidence:
         return 0.0
 
 
-def signature_text(replay, scorer, before, best) -> str:
-    """The signature of ``best``'s effect measured on the residual of ``before``, in words."""
+def signature_text(ev: Evidence, scorer, before, best) -> str:
+    """The signature of ``best``'s effect measured on ``ev``, the residual of ``before``, in words."""
     cand = best.candidate
     sig = REGISTRY[cand.name].signature
     if sig not in SIGNATURES:
         return ""
     view, words = SIGNATURES[sig]
-    ev = Evidence(replay, before.plant, before.sim)
     if ev.position is None:
         return f"{cand.name} shows as {words}"
     name = cand.options.get("signal", scorer.primary)
@@ -198,15 +197,15 @@ def explain(replay, scorer, before, best) -> str:
     sits in, and what adding the effect gains."""
     name = scorer.primary
     unit = replay.data.signal_unit(name) if name in replay.data.signals else replay.data.input_unit
-    r0 = replay.residuals(before.sim)[name]
+    ev = Evidence(replay, before.plant, before.sim)
+    r0 = ev.residuals[name]
     r1 = replay.residuals(best.result.sim)[name]
     parts = []
-    sig = signature_text(replay, scorer, before, best)
+    sig = signature_text(ev, scorer, before, best)
     if sig:
         parts.append(sig)
-    th, v = motion(replay, before.plant)
-    if th is not None:
-        labels = classify_phases(replay.t, th, v)
+    if ev.position is not None:
+        labels = classify_phases(replay.t, ev.position, ev.speed)
         shares = error_shares(labels, r0)
         ph = max(shares, key=lambda k: shares[k]["error_share"])
         parts.append(f"{shares[ph]['error_share']:.0%} of the {name} residual's squared error sits in {ph} "
@@ -219,11 +218,3 @@ def explain(replay, scorer, before, best) -> str:
     text = "; ".join(parts)
     return text[0].upper() + text[1:] + "."
 
-
-def motion(replay, plant):
-    """Measured position (output rad) and its smoothed speed, or (None, None)."""
-    name, th = replay._motion(plant)
-    if th is None:
-        return None, None
-    v, _, _ = smoothed_speed(replay.t, th)
-    return th, v
