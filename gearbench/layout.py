@@ -39,32 +39,15 @@ P_RIGID = 28       # 1.0: rigid gear (no mesh, no clearance): rotor, pinion and 
 P_DRIVE_GAIN = 29  # torque input mode: rotor torque per unit of input (1 for N m; lead/(2 pi N) for N)
 P_KV = 30          # sampled position-velocity controller: velocity gain, V / (rad/s) at the output
 P_CTRL_GAIN = 31   # sampled controller: input units per controller volt (EMPS gtau, N/V)
-# effects (plant/effects/): 0 = absent.  Friction levels are magnitudes.
-P_FRIC_EPS_M = 32  # friction regularisation speed at the motor, rad/s
+P_FRIC_EPS_M = 32  # friction regularisation speed at the motor, rad/s (the solver's)
 P_FRIC_EPS_L = 33  # friction regularisation speed at the load, rad/s
-P_COUL_M = 34      # Coulomb friction at the motor, N m (moving forward)
-P_COUL_M_NEG = 35  # ... moving backward, N m
-P_COUL_L = 36      # Coulomb friction at the load, N m (forward)
-P_COUL_L_NEG = 37  # ... backward, N m
-P_STR_TS_M = 38    # Stribeck static (breakaway) torque at the motor, N m
-P_STR_TC_M = 39    # Stribeck Coulomb torque at the motor, N m
-P_STR_WS_M = 40    # Stribeck speed at the motor, rad/s
-P_STR_TS_L = 41
-P_STR_TC_L = 42
-P_STR_WS_L = 43
-P_VISC_M = 44      # added viscous friction at the motor, N m s/rad (forward)
-P_VISC_M_NEG = 45  # ... backward
-P_VISC_L = 46      # added viscous friction at the load, N m s/rad (forward)
-P_VISC_L_NEG = 47  # ... backward
-P_SPRING_K = 48    # load spring stiffness, N m/rad
-P_SPRING_TH0 = 49  # load spring rest angle, rad
-P_BIAS = 50        # constant torque on the load, N m
-P_DEADZONE = 51    # amplifier dead zone threshold, V
 P_DELAY = 52       # sampled controller: 1.0 holds the previous sample's command (one sample of delay)
 P_FF = 53          # velocity feedforward, V per rad/s of set-point speed at the output (0 = none)
 P_REF_SLOPE = 54   # the current segment's set-point slope, rad/s (written by the integration loop)
 P_KRATE = 55       # rate damping of damped_feedforward, V per rad/s of the error rate dr/dt - w_m/N (0 = none)
-P_SIZE = 64
+P_PWL = 56         # 1.0 when every effect keeps the right-hand side piecewise-linear (packer)
+P_SIZE = 64        # the plant's and controller's slots; the effects' blocks follow
+                   # (plant/effects/codegen.py lays them out from their declarations)
 
 LAW_DUBOWSKY = 0.0
 LAW_ELASTO = 1.0
@@ -130,25 +113,19 @@ O_TORQUE = 7       # mesh contact torque on the load, N m
 O_DELTA = 8        # mesh relative angle, rad
 N_OUT = 9
 
-# ---- run statistics ------------------------------------------------------
-S_STATUS = 0       # 0 ok, else a STATUS_* code
-S_T_FAIL = 1       # time the solver stopped, s
-S_IAE = 2          # rad s
-S_ISE = 3          # rad^2 s
-S_MAX_ERR = 4      # rad
-S_T_SAT = 5        # s spent with the controller output at the voltage limit
-S_IMPACTS = 6      # contact onsets
-S_SWITCHES = 7     # changes of sign of the applied voltage (continuous laws: past rtol * Vmax)
-S_STEPS = 8        # accepted steps
-S_REJECTED = 9     # rejected steps
-S_EVENTS = 10      # located events
-S_FEVALS = 11      # right-hand-side evaluations
-N_STATS = 12
+# ---- run statistics: the solver's (solver.integrate.S_*), then the model's
+from .solver.integrate import (N_SOLVER_STATS, S_EVENTS, S_FEVALS, S_REJECTED, S_STATUS,  # noqa: E402,F401
+                               S_STEPS, S_T_FAIL, STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_OK,
+                               STATUS_STEP_TOO_SMALL, METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK)
 
-STATUS_OK = 0
-STATUS_STEP_TOO_SMALL = 1
-STATUS_MAX_STEPS = 2
-STATUS_NONFINITE = 3
+S_IAE = N_SOLVER_STATS + 0      # rad s
+S_ISE = N_SOLVER_STATS + 1      # rad^2 s
+S_MAX_ERR = N_SOLVER_STATS + 2  # rad
+S_T_SAT = N_SOLVER_STATS + 3    # s spent with the controller output at the voltage limit
+S_IMPACTS = N_SOLVER_STATS + 4  # contact onsets
+S_SWITCHES = N_SOLVER_STATS + 5 # changes of sign of the applied voltage (continuous laws: past rtol * Vmax)
+N_MODEL_STATS = 6
+N_STATS = N_SOLVER_STATS + N_MODEL_STATS
 
 STATUS_TEXT = {
     STATUS_OK: "ok",
@@ -156,7 +133,3 @@ STATUS_TEXT = {
     STATUS_MAX_STEPS: "step budget exhausted",
     STATUS_NONFINITE: "state became non-finite",
 }
-
-METHOD_ROSENBROCK = 0  # ode23s: L-stable Rosenbrock 2(3), Shampine & Reichelt 1997
-METHOD_DOPRI = 1       # Dormand-Prince 5(4), explicit
-METHOD_RODAS4 = 2      # RODAS: L-stable, stiffly accurate Rosenbrock 4(3), Hairer & Wanner

@@ -16,8 +16,8 @@ from . import layout as L
 from .interrupts import is_interrupt
 from .control.controllers import Controller, pack_controller
 from .plant.components import Plant
+from .plant.effects.codegen import compiled_model
 from .plant.pack import pack_plant, rest_state, tolerance_scales
-from .solver.integrate import integrate
 
 METHODS = {"rosenbrock23": L.METHOD_ROSENBROCK, "ode23s": L.METHOD_ROSENBROCK,
            "dopri5": L.METHOD_DOPRI, "ode45": L.METHOD_DOPRI, "rodas4": L.METHOD_RODAS4}
@@ -244,9 +244,9 @@ class RunResult:
 
 
 def pack(plant: Plant, controller: Controller) -> np.ndarray:
-    """The compiled core's parameter vector for this plant and controller."""
-    p = pack_plant(plant)
-    return pack_controller(controller, plant.gear.backlash_deg, p)
+    """The compiled core's parameter vector for this plant and controller,
+    both packed from the resolved plant (structural effects built in)."""
+    return pack_controller(controller, plant.resolved(), pack_plant(plant))
 
 
 def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: float,
@@ -300,7 +300,10 @@ def run_problems(plant, controller, inputs, t_end, delta0=0.0,
     else:
         problems.append(f"options must be a SolverOptions, got {show(options)}")
     if isinstance(plant, Plant):
-        h_deg = plant.gear.backlash_deg / 2.0
+        try:
+            h_deg = plant.resolved().gear.backlash_deg / 2.0  # the clearance may come from an effect
+        except ValueError:  # a bad structural effect: load_plant names it
+            h_deg = plant.gear.backlash_deg / 2.0
         if Number("rad", low=None).check(delta0, "delta0", problems) is not None \
                 and abs(delta0) > math.radians(h_deg):
             problems.append(f"delta0 must lie within +-{math.radians(h_deg):.6g} rad (half of "
@@ -324,7 +327,9 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     if options.method not in METHODS:
         raise ValueError(f"unknown solver method {options.method!r}; choose one of {sorted(METHODS)}")
     scales = np.asarray(scales, dtype=float)
-    p = np.array(p, dtype=float)
+    model = compiled_model()
+    # a vector packed before an effect module was loaded lacks only that module's blocks (absent: 0)
+    p = np.concatenate((np.asarray(p, dtype=float), np.zeros(max(model.SIZE - len(p), 0))))
     p[L.P_SPEED_EPS] = SHIFT_SPEED_REL * scales[L.X_WM]
     p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
     p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]
@@ -334,7 +339,7 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
         t_out = np.ascontiguousarray(output_times, dtype=float)
     d = np.zeros(len(inputs.t)) if inputs.d is None else inputs.d
     try:
-        outputs, stats, x_end, seg_u = integrate(
+        outputs, stats, x_end, seg_u = model.integrate(
             p, np.ascontiguousarray(inputs.t, dtype=float),
             np.ascontiguousarray(inputs.v, dtype=float), np.ascontiguousarray(inputs.s, dtype=float),
             np.ascontiguousarray(d, dtype=float), float(t_end), np.asarray(x0, dtype=float), t_out,

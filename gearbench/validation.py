@@ -42,6 +42,7 @@ def free_pair(jm, jl, n, h, k, d, law=L.LAW_DUBOWSKY, vmax=1.0, bl=0.0):
     p[L.P_JM], p[L.P_VMAX], p[L.P_N], p[L.P_H] = jm, vmax, n, h
     p[L.P_KMESH], p[L.P_DMESH], p[L.P_LAW], p[L.P_JL], p[L.P_BL] = k, d, law, jl, bl
     p[L.P_CTRL], p[L.P_TF], p[L.P_TORQUE_IN] = L.CTRL_OPEN, 1.0, 1.0
+    p[L.P_PWL] = 1.0  # no effects: the right-hand side is affine in each contact mode
     return p
 
 

@@ -88,25 +88,8 @@ ZERO_INPUT = Segments(t=np.array([0.0]), v=np.array([0.0]), s=np.array([0.0]))
 def free_pair(jm: float, jl: float, n: float, h: float, k: float, d: float,
               law: float = L.LAW_DUBOWSKY) -> np.ndarray:
     """Parameter vector for two free inertias coupled only by the mesh contact."""
-    p = np.zeros(L.P_SIZE)
-    p[L.P_R] = 1.0          # unused with a torque input, but kept physical
-    p[L.P_L] = 1.0
-    p[L.P_KT] = 1.0
-    p[L.P_KE] = 1.0
-    p[L.P_JM] = jm
-    p[L.P_BM] = 0.0
-    p[L.P_VMAX] = 1.0       # saturation of the (zero) drive torque
-    p[L.P_N] = n
-    p[L.P_H] = h
-    p[L.P_KMESH] = k
-    p[L.P_DMESH] = d
-    p[L.P_LAW] = law
-    p[L.P_JL] = jl
-    p[L.P_BL] = 0.0
-    p[L.P_CTRL] = L.CTRL_OPEN
-    p[L.P_TF] = 1.0
-    p[L.P_TORQUE_IN] = 1.0
-    return p
+    from gearbench.validation import free_pair as pair
+    return pair(jm, jl, n, h, k, d, law)
 
 
 def free_pair_scales(v_rel: float, n: float, k: float, jeff: float) -> np.ndarray:

@@ -10,7 +10,7 @@ from gearbench.control.controllers import Controller
 from gearbench.experiment.files import ConfigError, experiment_from_dict, load_experiment
 from gearbench.runner import load_profiles
 from gearbench.simulate import simulate
-from gearbench.solver.events import direction_of_segment
+from gearbench.plant.modes import direction_of_segment
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -13,7 +13,7 @@ import pytest
 from gearbench.experiment.files import (DRIVEN_MOTOR, GEAR, LEADSCREW, LOAD, MOTOR, PLANT_TOP, SHAFT,
                                         parse_yaml, plant_from_dict)
 from gearbench.plant.effects import REGISTRY
-from gearbench.plant.effects.location import FORCE_NAMES
+from gearbench.plant.effects.location import force_names
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "plant-yaml.md"
 
@@ -71,6 +71,6 @@ def test_every_effect_and_parameter_is_shown():
     assert set(REGISTRY) <= set(shown), f"effects without an example: {set(REGISTRY) - set(shown)}"
     for name, effect in REGISTRY.items():
         for q in effect.params:
-            assert q.name in shown[name] or FORCE_NAMES.get(q.name) in shown[name], (name, q.name)
+            assert q.name in shown[name] or force_names().get(q.name) in shown[name], (name, q.name)
         if "carriage" in effect.options.get("location", ()):
-            assert any(FORCE_NAMES.get(q.name, "") in shown[name] for q in effect.params), name
+            assert any(force_names().get(q.name, "") in shown[name] for q in effect.params), name

@@ -34,25 +34,23 @@ def mesh_closed_form(plant):
 @pytest.mark.parametrize("plant", [SAMPLE, SHAFT, SCREW], ids=["rigid", "shaft", "leadscrew"])
 def test_matrix_matches_compiled_rhs(plant):
     """Engaged on the positive flank, the compiled rhs is affine: its differences are A."""
-    from gearbench.plant.rhs import rhs
+    from gearbench.plant.effects.codegen import compiled_model
+    rhs = compiled_model().derivative
     p = pack(plant, Controller("open"))
     modes_ = np.zeros(L.N_MODES, dtype=np.int64)
     modes_[L.M_CONTACT] = 1
     ss = engaged_state_space(plant)
     x0 = np.zeros(L.N_STATE)
     x0[L.X_DELTA] = plant.gear.half_clearance + 1e-6
-    f0 = np.zeros(L.N_STATE)
-    rhs(x0, p, modes_, 0.0, f0)
+    f0 = rhs(p, x0, modes_, 0.0)
     rows = [COLUMNS[s] for s in ss.states]
     for j, name in enumerate(ss.states):
         x = x0.copy()
         x[COLUMNS[name]] += 1.0
-        f = np.zeros(L.N_STATE)
-        rhs(x, p, modes_, 0.0, f)
+        f = rhs(p, x, modes_, 0.0)
         np.testing.assert_allclose((f - f0)[rows], ss.a[:, j], rtol=1e-9,
                                    atol=1e-9 * np.abs(ss.a).max(), err_msg=name)
-    f = np.zeros(L.N_STATE)
-    rhs(x0, p, modes_, 1.0, f)  # one volt of input
+    f = rhs(p, x0, modes_, 1.0)  # one volt of input
     np.testing.assert_allclose((f - f0)[rows], ss.b, rtol=1e-9)
 
 

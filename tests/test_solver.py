@@ -17,7 +17,7 @@ from conftest import Controller, SolverOptions
 from gearbench import layout as L
 from gearbench.experiment.files import load_experiment
 from gearbench.plant.pack import tolerance_scales
-from gearbench.plant.rhs import feedback_states, rhs
+from gearbench.plant.effects.codegen import compiled_model
 from gearbench.profiles import load_profile
 from gearbench.simulate import Segments, pack, simulate
 from gearbench.solver.steppers import _factor, _solve, jacobian
@@ -106,7 +106,9 @@ def test_jacobian_at_the_limit_is_that_of_the_side_it_heads_to(thesis):
     n_ratio = p[L.P_N]
     vmax = p[L.P_VMAX]
     scale = tolerance_scales(plant)
-    order, na = feedback_states(p)
+    model = compiled_model()
+    p = np.concatenate((p, np.zeros(model.SIZE - len(p))))
+    order, na = model.feedback_order(p)
     modes = np.zeros(L.N_MODES, dtype=np.int64)
     slope = 0.26  # rad/s, the set point's ramp
 
@@ -115,10 +117,9 @@ def test_jacobian_at_the_limit_is_that_of_the_side_it_heads_to(thesis):
         x[L.X_THM] = 13.0
         x[L.X_WM] = 26.0
         ref = x[L.X_THM] / n_ratio + u / kp
-        f0 = np.empty(N)
-        rhs(x, p, modes, ref, f0)
+        f0 = model.derivative(p, x, modes, ref)
         lin = (np.empty((na, N)), np.empty((na, 2 * na)), order, np.empty(N))
-        jacobian(0.0, x, f0, p, modes, ref, slope, scale, 0, lin, np.empty(N), np.empty(N), np.empty(N))
+        model.jacobian(0.0, x, f0, p, modes, ref, slope, scale, 0, lin, np.empty(N), np.empty(N), np.empty(N))
         return lin[0][:, :L.N_DYN].copy(), lin[3][:L.N_DYN].copy()
 
     j_edge, t_edge = jac_at(vmax + 8e-11)

@@ -200,8 +200,11 @@ class Controller:
         return self.kind
 
 
-def pack_controller(ctrl: Controller, backlash_deg: float, p: np.ndarray) -> np.ndarray:
-    """Fill the controller slots of ``p`` (SI: V/rad, 1/s, s, rad)."""
+def pack_controller(ctrl: Controller, plant, p: np.ndarray) -> np.ndarray:
+    """Fill the controller slots of ``p`` (SI: V/rad, 1/s, s, rad) for the
+    resolved ``plant`` (``Plant.resolved()``: its clearance may come from the
+    ``backlash`` effect).  The default shift is half the clearance; the
+    feedforward compensators' gains come from the plant's motor and drag."""
     per_rad = 180.0 / math.pi
     p[L.P_CTRL] = KINDS[ctrl.kind]
     p[L.P_KP] = ctrl.kp * per_rad
@@ -211,20 +214,21 @@ def pack_controller(ctrl: Controller, backlash_deg: float, p: np.ndarray) -> np.
     p[L.P_BAND] = math.radians(ctrl.band_deg) / 2.0
     comp = ctrl.effective_compensator
     if comp != "none":
-        shift = ctrl.shift_deg if ctrl.shift_deg is not None else backlash_deg / 2.0
+        shift = ctrl.shift_deg if ctrl.shift_deg is not None else plant.gear.backlash_deg / 2.0
         p[L.P_SHIFT] = math.radians(shift)
     else:
         p[L.P_SHIFT] = 0.0
     keyed = ("setpoint_direction", "direction_feedforward", "damped_feedforward")
     p[L.P_COMP] = L.COMP_DIRECTION if comp in keyed else L.COMP_THESIS
     p[L.P_FF] = 0.0
-    n = p[L.P_N]
-    if comp in ("direction_feedforward", "damped_feedforward") and p[L.P_TORQUE_IN] == 0.0:
-        b = p[L.P_BM] + p[L.P_BL] / n ** 2
-        p[L.P_FF] = n * (p[L.P_KE] + p[L.P_R] * b / p[L.P_KT])
+    m, n, bl = plant.motor, plant.gear.ratio, plant.output_damping
+    voltage = plant.drive == "voltage"
+    if comp in ("direction_feedforward", "damped_feedforward") and voltage:
+        b = m.damping + bl / n ** 2
+        p[L.P_FF] = n * (m.back_emf_constant + m.resistance * b / m.torque_constant)
     p[L.P_KRATE] = 0.0
     if comp == "damped_feedforward":
         # the rotor torque that stands in for the load's damping bl/N^2 when the teeth part
-        per_volt = p[L.P_DRIVE_GAIN] if p[L.P_TORQUE_IN] > 0.0 else p[L.P_KT] / p[L.P_R]
-        p[L.P_KRATE] = p[L.P_BL] / (per_volt * n)
+        per_volt = m.torque_constant / m.resistance if voltage else plant.drive_gain
+        p[L.P_KRATE] = bl / (per_volt * n)
     return p

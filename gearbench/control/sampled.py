@@ -8,8 +8,9 @@ the output, ``y_k``, and the set point ``r_k``::
     c_k  = kv (kp (r_k - y_k) - v_k)           controller output, V
     u    = gain (sat(c_{k-d}, limit) + dist_k) the drive's input, held to k+1
 
-with ``d`` = ``delay_samples`` (0 or 1).  The compiled loop is in
-``solver/integrate.py``; this class converts the edge units to SI at the output.
+with ``d`` = ``delay_samples`` (0 or 1).  The compiled law is the gear
+model's discrete update (``plant/model.py``); this class converts the edge
+units to SI at the output.
 """
 from __future__ import annotations
 

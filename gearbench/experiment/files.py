@@ -257,11 +257,11 @@ def _check_effect(item: Any, path: str, has_leadscrew: bool, problems: list[str]
     """One ``{type: NAME, <parameters>}`` entry against the effect registry."""
     if not isinstance(item, Mapping) or not isinstance(item.get("type"), str):
         problems.append(f"{path} must be a mapping with a 'type' string naming an effect "
-                        f"({', '.join(EFFECTS)}), got {show(item)}")
+                        f"({', '.join(sorted(EFFECTS))}), got {show(item)}")
         return None
     name = item["type"]
     if name not in EFFECTS:
-        problems.append(unknown_key(join(path, "type"), name, {k: "" for k in EFFECTS},
+        problems.append(unknown_key(join(path, "type"), name, {k: "" for k in sorted(EFFECTS)},
                                     "a known effect"))
         return None
     effect = EFFECTS[name]

@@ -79,7 +79,7 @@ def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list
     resolved = plant.resolved()
     one_body = resolved.gear.rigid and resolved.shaft is None
     out = []
-    for name, eff in REGISTRY.items():
+    for name, eff in sorted(REGISTRY.items()):
         if only and name not in only:
             continue
         if not eff.applicable(resolved, signals):

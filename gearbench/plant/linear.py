@@ -160,36 +160,24 @@ def steady_drag(plant: Plant) -> tuple[float, float]:
     ``Tc_m``, ``Tc_l`` (N m) and ``F_c`` (N) the ``coulomb_friction`` levels
     there (the forward level ``torque``/``force``, since the motion is
     forward) plus ``stribeck_friction``'s sliding level ``coulomb_torque``
-    (``coulomb_force``): at speed its breakaway excess
-    ``(Ts - Tc) exp(-|w|/ws)`` has decayed (ignored here, so this is exact
-    only for ``|w| >> ws``); ``T_b`` (N m, N at the carriage times ``r``) is
-    a ``bias_torque``, positive forward, so it helps.  ``N`` is the gear
-    ratio and ``r = lead / 2 pi`` (m/rad).  The sign regularisation of the
-    compiled friction (``tanh(w/eps)``, ``eps`` ~1e-5 of the typical speed)
-    equals 1 to many digits at such speeds and is ignored.  Position-dependent
-    effects (``load_spring``) and the ``amplifier_deadzone`` are left out:
-    there is no single steady state with a spring, and whether the dead zone
-    lowers the top speed depends on the command (a controller's command
-    above ``Vmax + v0`` still saturates at ``Vmax``).
+    (``coulomb_force``): at speed its breakaway excess has decayed; ``T_b``
+    (N m, N at the carriage times ``r``) is a ``bias_torque``, positive
+    forward, so it helps.  ``N`` is the gear ratio and ``r = lead / 2 pi``
+    (m/rad).  Each effect declares its share (``Effect.steady_drag``); the
+    sign regularisation of the compiled friction equals 1 to many digits at
+    speed and is ignored.  Effects without a single steady drag (a spring,
+    the amplifier dead zone: whether it lowers the top speed depends on the
+    command) add nothing.
     """
-    from .effects.location import at_shaft
-
     n = plant.gear.ratio
     b = {"motor": plant.motor.damping, "load": plant.output_damping}
     t0 = {"motor": 0.0, "load": 0.0}
     for e in plant.effects:
-        v = e.values
-        if e.name == "viscous_friction":
-            loc, c = at_shaft(v, plant, "coefficient", 2)
-            b[loc] += c
-        elif e.name == "coulomb_friction":
-            loc, tc = at_shaft(v, plant, "torque", 1)
-            t0[loc] += tc
-        elif e.name == "stribeck_friction":
-            loc, tc = at_shaft(v, plant, "coulomb_torque", 1)
-            t0[loc] += tc
-        elif e.name == "bias_torque":
-            t0["load"] -= at_shaft(v, plant, "torque", 1)[1]
+        drag = e.effect.steady_drag(e.values, plant)
+        if drag is not None:
+            shaft, c, t = drag
+            b[shaft] += c
+            t0[shaft] += t
     return b["motor"] + b["load"] / n ** 2, t0["motor"] + t0["load"] / n
 
 

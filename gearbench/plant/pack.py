@@ -5,6 +5,7 @@ import numpy as np
 
 from .. import layout as L
 from .components import Plant
+from .effects.codegen import pack_effects, size
 
 CONTACT_LAWS = {"dubowsky": L.LAW_DUBOWSKY, "elasto_backlash": L.LAW_ELASTO,
                 "linear": L.LAW_LINEAR}  # linear: unclipped, for validation only (not in plant files)
@@ -14,10 +15,10 @@ def pack_plant(plant: Plant, p: np.ndarray | None = None) -> np.ndarray:
     """Fill the plant and effect slots of a parameter vector (SI units).
 
     Structural effects are built into the plant first (``Plant.resolved``);
-    every other effect writes its own slots.
+    each compiled effect adds its numbers to its block (``effects.codegen``).
     """
     if p is None:
-        p = np.zeros(L.P_SIZE)
+        p = np.zeros(size())
     base = plant
     plant = plant.resolved()
     m, g = plant.motor, plant.gear
@@ -48,8 +49,7 @@ def pack_plant(plant: Plant, p: np.ndarray | None = None) -> np.ndarray:
         p[L.P_JP] = plant.shaft.pinion_inertia
     p[L.P_TF] = 1.0  # harmless default; controllers set their own
     p[L.P_FRIC_EPS_M] = p[L.P_FRIC_EPS_L] = 1.0  # the solver sets the real ones
-    for e in base.effects:
-        e.effect.pack(e.values, p, plant)
+    p[L.P_PWL] = 1.0 if pack_effects(base.effects, plant, p) else 0.0
     return p
 
 

@@ -19,8 +19,11 @@ no mesh: ``delta = 0`` and the load rides on the pinion,
 
     (Jp + Jl/N^2) dw_p/dt = (torques on the pinion) + (Te - bl w_l)/N,  w_l = w_p/N
 
-The effects (``plant/effects``) add ``Tm_e(w_m)`` on the rotor, ``Te(theta_l,
-w_l)`` on the load, and map the command to the motor voltage.
+The effects (``plant/effects``) add ``Tm_e(theta_m, w_m)`` on the rotor,
+``Te(theta_l, w_l)`` on the load, map the command to the motor voltage, and
+offset the mesh's relative angle as the contact sees it by ``e(theta_l)``.
+Their compiled terms reach these functions as ``fx`` (``effects.codegen``:
+``fx.motor``, ``fx.load``, ``fx.voltage``, ``fx.mesh``), the model's ``args``.
 """
 import numba as nb
 import numpy as np
@@ -30,11 +33,8 @@ from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, 
                       P_DMESH, P_DRIVE_GAIN, P_DS, P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE,
                       P_KMESH, P_KS, P_KT, P_L, P_LAW, P_N, P_R, P_RIGID, P_TF, P_TORQUE_IN,
                       P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
-                      X_ZD, X_ZI, N_DYN, N_STATE, P_COUL_M, P_COUL_M_NEG,
-                      P_COUL_L, P_COUL_L_NEG, P_STR_TS_M, P_STR_TC_M, P_STR_TS_L, P_STR_TC_L,
-                      P_DEADZONE, P_VISC_M, P_VISC_M_NEG, P_VISC_L, P_VISC_L_NEG)
+                      X_ZD, X_ZI, N_DYN, N_STATE, P_FRIC_EPS_M, P_FRIC_EPS_L, P_PWL)
 from .contact import engaged_torque
-from .effects.compiled import input_voltage, load_torque, motor_torque
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -56,44 +56,53 @@ def mesh_rate(x, p):
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def mesh_torque(x, p, modes):
+def mesh_seen(fx, x, p):
+    """The mesh's relative angle and its rate as the contact sees them, rad and
+    rad/s: ``delta + e(theta_l)`` and ``d delta/dt + e'(theta_l) w_l``, with
+    ``e`` the effects' offset (a transmission error; 0 without one)."""
+    e, de = fx.mesh(p, load_angle(x, p))
+    return x[X_DELTA] + e, mesh_rate(x, p) + de * x[X_WL]
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def mesh_torque(fx, x, p, modes):
     """Contact torque on the load in the current contact mode, N m."""
     m = modes[M_CONTACT]
     if m == 0 or p[P_RIGID] > 0.0:
         return 0.0
-    return engaged_torque(x[X_DELTA], mesh_rate(x, p), p[P_H], p[P_KMESH],
-                          p[P_DMESH], p[P_LAW], m, modes[M_DAMP] > 0)
+    delta, rate = mesh_seen(fx, x, p)
+    return engaged_torque(delta, rate, p[P_H], p[P_KMESH], p[P_DMESH], p[P_LAW], m, modes[M_DAMP] > 0)
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def applied_input(x, p, modes, ref):
+def applied_input(fx, x, p, modes, ref):
     """The input as applied: motor voltage (V, after any dead zone and the
     saturation) or drive torque / force (N m or N, saturated at the drive's limit).
 
     A sampled controller's output comes saturated from the integration loop.
     """
-    u = demanded_input(x, p, modes, ref)
+    u = demanded_input(fx, x, p, modes, ref)
     if p[P_CTRL] == CTRL_SAMPLED_PV:
         return u
     return saturate(u, p[P_VMAX])
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def demanded_input(x, p, modes, ref):
+def demanded_input(fx, x, p, modes, ref):
     """``applied_input`` before the saturation: the command, through any
     amplifier dead zone when it is a voltage."""
     kind = p[P_CTRL]
     u = command(x, p, modes, ref, kind)
     if kind != CTRL_SAMPLED_PV and p[P_TORQUE_IN] == 0.0:
-        u = input_voltage(p, u)
+        u = fx.voltage(p, u)
     return u
 
 
 @nb.njit(cache=True, _nrt=False)
-def rhs(x, p, modes, ref, out):
+def rhs(fx, x, p, modes, ref, out):
     """Write dx/dt into ``out`` for state ``x`` and set point (or input) ``ref``."""
     n = p[P_N]
-    u = applied_input(x, p, modes, ref)
+    u = applied_input(fx, x, p, modes, ref)
     wm = x[X_WM]
     if p[P_TORQUE_IN] > 0.0:
         out[X_I] = 0.0
@@ -101,7 +110,7 @@ def rhs(x, p, modes, ref, out):
     else:
         out[X_I] = (u - p[P_R] * x[X_I] - p[P_KE] * wm) / p[P_L]
         tm = p[P_KT] * x[X_I]
-    tm += motor_torque(p, wm) - p[P_BM] * wm
+    tm += fx.motor(p, x[X_THM], wm, p[P_FRIC_EPS_M]) - p[P_BM] * wm
     shaft = p[P_HAS_SHAFT] > 0.0
     out[X_THM] = wm
     if shaft:
@@ -117,7 +126,7 @@ def rhs(x, p, modes, ref, out):
     if p[P_RIGID] > 0.0:
         # the load rides on the pinion: one body, reflected to the pinion
         wl = wp / n
-        t_load = load_torque(p, load_angle(x, p), wl) - p[P_BL] * wl
+        t_load = fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L]) - p[P_BL] * wl
         acc = (ts + t_load / n) / ((p[P_JP] if shaft else p[P_JM]) + p[P_JL] / (n * n))
         if shaft:
             out[X_WP] = acc
@@ -126,14 +135,14 @@ def rhs(x, p, modes, ref, out):
         out[X_DELTA] = 0.0
         out[X_WL] = acc / n
     else:
-        t_mesh = mesh_torque(x, p, modes)
+        t_mesh = mesh_torque(fx, x, p, modes)
         if shaft:
             out[X_WP] = (ts - t_mesh / n) / p[P_JP]
         else:
             out[X_WM] = (tm - t_mesh / n) / p[P_JM]
         wl = x[X_WL]
         out[X_DELTA] = wp / n - wl
-        out[X_WL] = (t_mesh - p[P_BL] * wl + load_torque(p, load_angle(x, p), wl)) / p[P_JL]
+        out[X_WL] = (t_mesh - p[P_BL] * wl + fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L])) / p[P_JL]
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         # `ref` is the input itself (or the held sampled command): no error to score here
@@ -151,7 +160,7 @@ def rhs(x, p, modes, ref, out):
 
 
 @nb.njit(cache=True)
-def feedback_states(p):
+def feedback_states(fx, p):
     """The states whose value ``rhs`` reads for this plant and controller, first,
     then the rest; returns ``(order, count)``.
 
@@ -172,36 +181,31 @@ def feedback_states(p):
 
 
 @nb.njit(cache=True, _nrt=False)
-def piecewise_linear(p):
+def piecewise_linear(fx, p):
     """True when ``rhs`` is affine in the state inside each mode and each
     ``linear_region`` (every contact law: ElastoBacklash's kink is a mode), and
-    no effect has a curved or sign-dependent law (friction, an asymmetric
-    viscous term, an amplifier dead zone).  Its Jacobian is then constant
-    there, and a Jacobian taken once serves every step until the region
-    changes.
+    every effect keeps it so (each declares it: ``Effect.piecewise_linear``;
+    the packer writes ``P_PWL``).  Its Jacobian is then constant there, and a
+    Jacobian taken once serves every step until the region changes.
     """
-    for slot in (P_COUL_M, P_COUL_M_NEG, P_COUL_L, P_COUL_L_NEG, P_STR_TS_M, P_STR_TC_M,
-                 P_STR_TS_L, P_STR_TC_L, P_DEADZONE):
-        if p[slot] != 0.0:
-            return False
-    return p[P_VISC_M] == p[P_VISC_M_NEG] and p[P_VISC_L] == p[P_VISC_L_NEG]
+    return p[P_PWL] > 0.0
 
 
 @nb.njit(cache=True, _nrt=False)
-def linear_region(x, p, modes, ref):
+def linear_region(fx, x, p, modes, ref):
     """Which side of the amplifier's limits the command is on (-1, 0, +1): the
     only kink of a ``piecewise_linear`` right-hand side inside a mode, apart
     from the error quadratures (see ``quadrature_rows``)."""
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         return 0
-    u = demanded_input(x, p, modes, ref)
+    u = demanded_input(fx, x, p, modes, ref)
     vmax = p[P_VMAX]
     return 1 if u >= vmax else (-1 if u <= -vmax else 0)
 
 
 @nb.njit(cache=True, _nrt=False)
-def quadrature_rows(x, p, ref, slope, order, na, jac, tdot):
+def quadrature_rows(fx, x, p, ref, slope, order, na, jac, tdot):
     """Write the error quadratures' rows of the Jacobian exactly: with
     ``e = r - theta_l``, ``theta_l = (theta_m - phi)/N - delta``,
     d|e|/dx = -sign(e) d theta_l/dx and d e^2/dx = -2 e d theta_l/dx, and

@@ -1,265 +1,165 @@
-"""Discrete modes and the guards that switch them, compiled.
+"""Finding events inside an accepted step, compiled and model-agnostic.
 
-The right-hand side is smooth inside a mode; it changes character when
-
-* the teeth touch (contact onset: with Dubowsky's law the damper torque
-  appears at once) or separate (the contact torque reaches zero),
-* with the ElastoBacklash law, the damping torque meets the spring torque
-  (the kink of ``Tc + min(Tc, Td)``; mode ``M_DAMP``),
-* the bang-bang controller switches (``|e|`` crosses ``band/2``),
-* the set-point shift flips (the motor speed crosses zero; thesis compensator
-  only: the set-point-direction compensator switches at the profile's corners,
-  which the integration loop handles between segments),
-* a continuous law (P, PI, PID) reaches or leaves the amplifier's limit: a
-  kink, not a jump, but the Jacobian changes there, and a step straddling it
-  with the Jacobian of the other side is a Rosenbrock step with a wrong
-  Jacobian (the loop's feedback treated explicitly): its error estimate blows up
-  and the step is rejected again and again.
-
-With the unclipped ``linear`` contact law the teeth separate when the
-penetration returns to zero (guard ``-cm k p``, torque units), not on the
-torque's sign.
-
-Each is a guard that fires when it goes from < 0 to >= 0 (or from exactly 0
-where a step starts, which means it was reached already); the solver locates
-the root on the step's interpolant, steps exactly to it, then calls
-``apply_event``.  Guards are re-armed from the new mode after every restart
-(a guard of the new mode starts at or below zero), which is what stops the
-teeth passing through each other when a root lands just short of a crossing.
+A guard fires where it goes from < 0 to >= 0 (or from exactly 0 where a step
+starts, which means it was reached already).  Its root is found on the
+step's cubic Hermite interpolant (``steppers.hermite``) by the Illinois
+method; the integration loop then re-takes the step to land on it.  A guard
+can also cross and cross back inside one step (a graze: teeth that would
+pass through each other); each guard is monotone in one state between that
+state's extrema, so the guards are also tested at the interior extrema of the
+components the model ``watch``-es.
 """
+import math
+
 import numba as nb
 
-from ..control.laws import control_error
-from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_P, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, P_RIGID,
-                      G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_KINK, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT,
-                      M_DAMP, M_SAT, M_SHIFT, LAW_ELASTO, LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS,
-                      P_CTRL, P_DMESH, P_H, P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, P_VMAX, X_DELTA, X_WL,
-                      X_WM, X_WP)
-from ..plant.contact import damping_limited, entry_guard, kink_guard, unclipped
-from ..plant.rhs import demanded_input, linear_region, mesh_rate, rhs
-
-INACTIVE = -1.0
-REACH_MARGIN = 1.00001
-"""``saturation_reach`` ends a step this factor past the predicted crossing of
-the amplifier's limit: past it, so the crossing falls inside an accepted step
-and is located; by a sliver, because the part past the limit is taken with the
-other side's Jacobian (profile 1, P Kp = 50: a step 1 % past it was rejected,
-error norm 4e4)."""
-REACH_FLOOR = 0.1
-"""... and never shortens it below this fraction: a guard that nears the limit
-tangentially would be approached in ever-shorter steps."""
+from .steppers import hermite
 
 
 @nb.njit(cache=True, _nrt=False)
-def guards(x, p, modes, ref, g):
-    """Fill ``g`` with the guard values of the current modes."""
-    for j in range(N_GUARDS):
-        g[j] = INACTIVE
-    delta = x[X_DELTA]
-    dd = mesh_rate(x, p)
-    h, k, d = p[P_H], p[P_KMESH], p[P_DMESH]
-    cm = modes[M_CONTACT]
-    if p[P_RIGID] > 0.0:
-        pass  # no mesh: no contact events
-    elif cm == 0:
-        g[G_ENTER_POS] = entry_guard(delta, dd, h, k, d, 1)
-        g[G_ENTER_NEG] = entry_guard(delta, dd, h, k, d, -1)
-    elif p[P_LAW] == LAW_LINEAR:
-        g[G_LEAVE] = -cm * k * (delta - cm * h)
+def locate(m, j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0, lo0=0.0):
+    """Root of guard ``j`` on the step's interpolant in ``(lo0, hi0]`` (Illinois),
+    where the guard is ``g0j`` < 0 at ``lo0`` and >= 0 at ``hi0``; returns theta."""
+    lo, hi = lo0, hi0
+    glo = g0j
+    if hi0 >= 1.0:
+        m.guards(m.args, xn, p, modes, ref_t + slope * hh, gt)
     else:
-        g[G_LEAVE] = -cm * unclipped(delta, dd, h, k, d, cm)
-        if p[P_LAW] == LAW_ELASTO:
-            g[G_KINK] = kink_guard(delta, dd, h, k, d, cm, modes[M_DAMP] > 0)
-    kind = p[P_CTRL]
-    if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
-        return
-    if kind == CTRL_BANGBANG:
-        e = control_error(x, p, modes, ref)
-        band = p[P_BAND]
-        bb = modes[M_BB]
-        if bb == 0:
-            g[G_BB_A] = e - band
-            g[G_BB_B] = -e - band
-        elif bb > 0:
-            g[G_BB_A] = band - e
+        hermite(hi0, hh, x, f, xn, fn, xi)
+        m.guards(m.args, xi, p, modes, ref_t + slope * hi0 * hh, gt)
+    ghi = gt[j]
+    tol = max(1e-13 * max(1.0, abs(t)) / hh, 1e-15)
+    side = 0
+    for _ in range(200):
+        if hi - lo <= tol:
+            break
+        denom = ghi - glo
+        th = hi - ghi * (hi - lo) / denom if denom != 0.0 else 0.5 * (lo + hi)
+        if not (lo < th < hi):
+            th = 0.5 * (lo + hi)
+        hermite(th, hh, x, f, xn, fn, xi)
+        m.guards(m.args, xi, p, modes, ref_t + slope * th * hh, gt)
+        gm = gt[j]
+        if gm >= 0.0:
+            hi, ghi = th, gm
+            if side == 1:
+                glo *= 0.5
+            side = 1
         else:
-            g[G_BB_A] = band + e
-    else:
-        g[G_SAT] = saturation_guard(x, p, modes, ref)
-    if p[P_SHIFT] > 0.0 and p[P_COMP] == COMP_THESIS:
-        # Equation 1 flips the shift where the motor speed changes sign.  At
-        # rest after an overdamped approach the speed decays to zero and
-        # round-off alone would flip it (and start a chatter that the exact
-        # solution does not have), so a flip needs the speed past a tiny
-        # fixed threshold, P_SPEED_EPS (simulate.SHIFT_SPEED_REL), on the other side.
-        eps = p[P_SPEED_EPS]
-        g[G_SHIFT] = -x[X_WM] - eps if modes[M_SHIFT] > 0 else x[X_WM] - eps
-
-
-@nb.njit(cache=True, inline="always", _nrt=False)
-def continuous_law(p):
-    """True for the P, PI and PID laws, whose output meets the amplifier's
-    limit continuously (guard ``G_SAT``)."""
-    kind = p[P_CTRL]
-    return kind == CTRL_P or kind == CTRL_PI or kind == CTRL_PID
-
-
-@nb.njit(cache=True, inline="always", _nrt=False)
-def saturation_guard(x, p, modes, ref):
-    """Guard ``G_SAT`` of a continuous law, V: ``|u| - Vmax`` inside the
-    limits, ``Vmax - side u`` on one (``u`` the demanded input)."""
-    u = demanded_input(x, p, modes, ref)
-    side = modes[M_SAT]
-    return abs(u) - p[P_VMAX] if side == 0 else p[P_VMAX] - side * u
+            lo, glo = th, gm
+            if side == -1:
+                ghi *= 0.5
+            side = -1
+    return hi
 
 
 @nb.njit(cache=True, _nrt=False)
-def saturation_reach(x, f, p, modes, ref, slope, h, xe):
-    """The step to take instead of ``h`` (s) so that a continuous law does
-    not cross the amplifier's limit far inside it.
-
-    A step that straddles the limit with the Jacobian of the side it starts on
-    treats the loop's feedback (or its absence) explicitly, and its error
-    estimate explodes; it would be rejected and shrunk by 5x at a time until
-    it no longer reached the limit.  Instead, predict the crossing along the
-    tangent (the law is affine in the state and the set point is a ramp, so
-    the prediction is the guard's first-order Taylor step) and end the step
-    just past it, where the event is located on an accepted step.  ``xe``:
-    scratch."""
-    g0 = saturation_guard(x, p, modes, ref)
-    if g0 >= 0.0:
-        return h
-    for i in range(x.shape[0]):
-        xe[i] = x[i] + h * f[i]
-    g1 = saturation_guard(xe, p, modes, ref + slope * h)
-    if g1 <= 0.0:
-        return h
-    return min(h, max(h * g0 / (g0 - g1) * REACH_MARGIN, REACH_FLOOR * h))
-
-
-@nb.njit(cache=True, _nrt=False)
-def classify_controller(x, p, modes, ref):
-    """Set the controller's modes from the state: the bang-bang output, or a
-    continuous law's side of the amplifier's limit (used where the error jumps,
-    or where a step left a mode stale)."""
-    modes[M_SAT] = linear_region(x, p, modes, ref) if continuous_law(p) else 0
-    if p[P_CTRL] != CTRL_BANGBANG:
-        modes[M_BB] = 0
-        return
-    e = control_error(x, p, modes, ref)
-    band = p[P_BAND]
-    if e > band:
-        modes[M_BB] = 1
-    elif e < -band:
-        modes[M_BB] = -1
-    else:
-        modes[M_BB] = 0
+def extrema(hh, x, f, xn, fn, idx, target, out, n):
+    """Append to ``out[n:]`` the theta in (0, 1) where the slope of component
+    ``idx`` on the step's cubic Hermite interpolant equals ``target``
+    (``d y / d theta``, a quadratic); returns the new count (at most n + 2)."""
+    dy = x[idx] - xn[idx]
+    d0 = hh * f[idx]
+    d1 = hh * fn[idx]
+    a = 6.0 * dy + 3.0 * (d0 + d1)
+    b = -6.0 * dy - 4.0 * d0 - 2.0 * d1
+    c = d0 - target
+    scale = abs(a) + abs(b) + abs(c)
+    if scale == 0.0:
+        return n
+    if abs(a) <= 1e-12 * scale:
+        if b != 0.0:
+            r = -c / b
+            if 0.0 < r < 1.0:
+                out[n] = r
+                n += 1
+        return n
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        return n
+    sq = math.sqrt(disc)
+    q = -0.5 * (b + sq) if b >= 0.0 else -0.5 * (b - sq)
+    r1 = q / a
+    r2 = c / q if q != 0.0 else r1
+    if 0.0 < r1 < 1.0:
+        out[n] = r1
+        n += 1
+    if 0.0 < r2 < 1.0 and r2 != r1:
+        out[n] = r2
+        n += 1
+    return n
 
 
 @nb.njit(cache=True, _nrt=False)
-def classify_damping(x, p, modes):
-    """Set ElastoBacklash's damping piece (``M_DAMP``) from the state; 0 out
-    of contact and for the other laws."""
-    cm = modes[M_CONTACT]
-    limited = (cm != 0 and p[P_LAW] == LAW_ELASTO
-               and damping_limited(x[X_DELTA], mesh_rate(x, p), p[P_H], p[P_KMESH], p[P_DMESH], cm))
-    modes[M_DAMP] = 1 if limited else 0
+def _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt):
+    """Guard ``j`` was refused where the step starts (at zero, turning back)
+    but is >= 0 at its end: it may still cross later in the step.  Find where
+    it is back below zero and locate the crossing after that; -1 if it never
+    is."""
+    lo = 0.5
+    for _ in range(40):
+        hermite(lo, hh, x, f, xn, fn, xi)
+        m.guards(m.args, xi, p, modes, ref_t + slope * lo * hh, gt)
+        if gt[j] < 0.0:
+            break
+        lo *= 0.5
+    if gt[j] < 0.0:
+        return locate(m, j, gt[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0, lo)
+    return -1.0
 
 
 @nb.njit(cache=True, _nrt=False)
-def classify(x, p, modes, ref):
-    """Set every mode from the state alone (at the start of a run)."""
-    delta = x[X_DELTA]
-    dd = mesh_rate(x, p)
-    h, k, d = p[P_H], p[P_KMESH], p[P_DMESH]
-    modes[M_CONTACT] = 0
-    linear = p[P_LAW] == LAW_LINEAR
-    if p[P_RIGID] > 0.0:
-        pass
-    elif delta > h and (linear or unclipped(delta, dd, h, k, d, 1) > 0.0):
-        modes[M_CONTACT] = 1
-    elif delta < -h and (linear or unclipped(delta, dd, h, k, d, -1) < 0.0):
-        modes[M_CONTACT] = -1
-    classify_damping(x, p, modes)
-    if p[P_COMP] == COMP_THESIS:
-        modes[M_SHIFT] = 1 if x[X_WM] >= 0.0 else -1
-    else:
-        modes[M_SHIFT] = 0  # no direction until the set point first moves
-    classify_controller(x, p, modes, ref)
+def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1, xi, gt):
+    """The earliest guard that fires between the step's ends: ``(which, theta)``
+    (``which`` = -1 when none).  Fills ``g0``/``g1`` with the guards at its ends.
+
+    A guard at exactly 0 where the step starts and > 0 after has been reached
+    already: a step re-taken to land on a root can end a round-off short of it
+    (-4e-19), and the input recomputed for the next step puts the guard at
+    exactly 0, which "< 0 to >= 0" would never see (profile 3, bang-bang,
+    rtol 3e-7: the first switch went unseen for 22 ms)."""
+    m.guards(m.args, x, p, modes, ref_t, g0)
+    m.guards(m.args, xn, p, modes, ref_t + slope * hh, g1)
+    which = -1
+    theta = 1.0
+    for j in range(g0.shape[0]):
+        th = -1.0
+        if j != skip and g0[j] < 0.0 and g1[j] >= 0.0:
+            th = locate(m, j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0)
+        elif j != skip and g0[j] == 0.0 and g1[j] > 0.0:
+            theta = 0.0
+            which = j
+        elif j == skip and g1[j] >= 0.0:
+            th = _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt)
+        if th >= 0.0 and (which < 0 or th < theta):
+            theta = th
+            which = j
+    return which, theta
 
 
 @nb.njit(cache=True, _nrt=False)
-def apply_event(which, x, p, modes, ref, f):
-    """Switch the modes for the guard ``which`` that just fired.
-
-    Returns 1 for a contact onset (an impact), 0 otherwise.
-    """
-    if which == G_ENTER_POS or which == G_ENTER_NEG:
-        modes[M_CONTACT] = 1 if which == G_ENTER_POS else -1
-        classify_damping(x, p, modes)
-        return 1
-    if which == G_LEAVE:
-        cm = modes[M_CONTACT]
-        # Refuse a separation whose free-flight torque rate points straight
-        # back into contact (a graze at zero torque, not a separation).
-        modes[M_CONTACT] = 0
-        rhs(x, p, modes, ref, f)  # f: scratch for the free-flight derivative
-        n = p[P_N]
-        wp_dot = f[X_WP] if p[P_HAS_SHAFT] > 0.0 else f[X_WM]
-        dd = mesh_rate(x, p)
-        if p[P_LAW] == LAW_LINEAR:
-            rate = p[P_KMESH] * dd  # the guard is the spring torque alone
-        else:
-            rate = p[P_KMESH] * dd + p[P_DMESH] * (wp_dot / n - f[X_WL])
-        if cm * rate > 0.0:
-            modes[M_CONTACT] = cm
-        classify_damping(x, p, modes)
-        return 0
-    if which == G_KINK:
-        modes[M_DAMP] = 1 - modes[M_DAMP]
-        return 0
-    if which == G_BB_A:
-        if modes[M_BB] == 0:
-            modes[M_BB] = 1
-        else:
-            modes[M_BB] = 0
-        return 0
-    if which == G_BB_B:
-        modes[M_BB] = -1
-        return 0
-    if which == G_SHIFT:
-        modes[M_SHIFT] = -modes[M_SHIFT]
-        # the effective set point jumps by twice the shift
-        classify_controller(x, p, modes, ref)
-        return 0
-    if which == G_SAT:
-        if modes[M_SAT] == 0:
-            modes[M_SAT] = 1 if demanded_input(x, p, modes, ref) > 0.0 else -1
-        else:
-            modes[M_SAT] = 0
-        return 0
-    return 0
-
-
-@nb.njit(cache=True, _nrt=False)
-def direction_of_segment(k, seg_t, seg_v, seg_s, held):
-    """Set-point direction for the set-point-direction compensator on segment ``k``.
-
-    The sign of the segment's slope; on a dwell (zero slope) the sign of the
-    step that opens it, if any; else ``held`` (the direction so far).  So the
-    direction changes only where the set point itself turns, and it is held
-    through dwells (the hysteresis: an overshoot never flips it).
-    """
-    s = seg_s[k]
-    if s > 0.0:
-        return 1
-    if s < 0.0:
-        return -1
-    if k > 0:
-        prev_end = seg_v[k - 1] + seg_s[k - 1] * (seg_t[k] - seg_t[k - 1])
-        jump = seg_v[k] - prev_end
-        if jump > 0.0:
-            return 1
-        if jump < 0.0:
-            return -1
-    return held
+def hidden_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, which, theta,
+                    g0, g1, g2, xi, gt, thq, widx, wtarget):
+    """Guards that cross and cross back inside the step: tested at the interior
+    extrema of the components the model watches; returns the updated
+    ``(which, theta)`` of ``first_crossing``."""
+    nw = m.watch(m.args, p, modes, slope, hh, widx, wtarget)
+    nq = 0
+    for i in range(nw):
+        nq = extrema(hh, x, f, xn, fn, widx[i], wtarget[i], thq, nq)
+    for q in range(nq):
+        tq = thq[q]
+        if which >= 0 and tq >= theta:
+            continue
+        hermite(tq, hh, x, f, xn, fn, xi)
+        m.guards(m.args, xi, p, modes, ref_t + slope * tq * hh, g2)
+        for j in range(g0.shape[0]):
+            if j != skip and g0[j] < 0.0 and g1[j] < 0.0 and g2[j] >= 0.0:
+                th = locate(m, j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, tq)
+                if which < 0 or th < theta:
+                    theta = th
+                    which = j
+            elif j != skip and g0[j] == 0.0 and g2[j] > 0.0:
+                theta = 0.0  # reached where the step starts (see first_crossing)
+                which = j
+    return which, theta

@@ -28,8 +28,6 @@ import math
 
 import numba as nb
 
-from ..layout import N_STATE
-from ..plant.rhs import linear_region, rhs
 
 EPS = 2.220446049250313e-16
 WS_ROWS = 11  # scratch vectors every stepper fits in
@@ -64,7 +62,7 @@ def hermite(theta, h, y0, f0, y1, f1, out):
 
 
 @nb.njit(cache=True, _nrt=False)
-def jacobian(t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb):
+def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb):
     """Forward-difference Jacobian over the feedback states ``order[:na]``:
     ``jac[a, i] = d f_i / d y_order[a]``.  The other states (the quadratures,
     and dynamic states this plant and controller never read: a shaft's twist
@@ -87,9 +85,9 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb
     rtol 3e-7).  Writes ``lin``'s ``jac`` and ``tdot``; ``ytmp``, ``ftmp``,
     ``fb``: scratch; returns the right-hand-side evaluations spent."""
     jac, w, order, tdot = lin
-    n = N_STATE
+    n = m.n_state
     na = w.shape[0]
-    base_off = linear_region(y, p, modes, ref0) != region
+    base_off = m.region(m.args, y, p, modes, ref0) != region
     nfe = 0
     for a in range(na):
         j = order[a]
@@ -97,10 +95,10 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb
             ytmp[i] = y[i]
         dy = math.sqrt(EPS) * max(abs(y[j]), scale[j])
         ytmp[j] = y[j] + dy
-        if linear_region(ytmp, p, modes, ref0) != region:
+        if m.region(m.args, ytmp, p, modes, ref0) != region:
             ytmp[j] = y[j] - dy
         dy = ytmp[j] - y[j]
-        rhs(ytmp, p, modes, ref0, ftmp)
+        m.rhs(m.args, ytmp, p, modes, ref0, ftmp)
         nfe += 1
         base = f0
         if base_off:  # y + dy is the base, y + 2 dy the other point
@@ -108,22 +106,22 @@ def jacobian(t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb
                 fb[i] = ftmp[i]
             base = fb
             ytmp[j] = y[j] + 2.0 * dy
-            rhs(ytmp, p, modes, ref0, ftmp)
+            m.rhs(m.args, ytmp, p, modes, ref0, ftmp)
             nfe += 1
         for i in range(n):
             jac[a, i] = (ftmp[i] - base[i]) / dy
     if slope != 0.0:
         dt = math.sqrt(EPS) * max(abs(t), 1.0)
-        if linear_region(y, p, modes, ref0 + slope * dt) != region:
+        if m.region(m.args, y, p, modes, ref0 + slope * dt) != region:
             dt = -dt
-        rhs(y, p, modes, ref0 + slope * dt, ftmp)
+        m.rhs(m.args, y, p, modes, ref0 + slope * dt, ftmp)
         nfe += 1
         base = f0
         if base_off:
             for i in range(n):
                 fb[i] = ftmp[i]
             base = fb
-            rhs(y, p, modes, ref0 + 2.0 * slope * dt, ftmp)
+            m.rhs(m.args, y, p, modes, ref0 + 2.0 * slope * dt, ftmp)
             nfe += 1
         for i in range(n):
             tdot[i] = (ftmp[i] - base[i]) / dt
@@ -179,6 +177,7 @@ def _solve(w, jac, order, diag, b, zb, z, out):
     (their own columns are zero), solved by substitution.  ``zb``, ``z``:
     scratch (``na`` entries)."""
     na = w.shape[0]
+    n = b.shape[0]
     for a in range(na):
         zb[a] = b[order[a]]
     for a in range(na):
@@ -189,20 +188,20 @@ def _solve(w, jac, order, diag, b, zb, z, out):
     # the substitution, over every row at once (contiguous, so it vectorises;
     # the feedback rows it also fills are overwritten just after)
     inv = 1.0 / diag
-    for i in range(N_STATE):
+    for i in range(n):
         out[i] = b[i]
     for a in range(na):
         za = z[a]
-        for i in range(N_STATE):
+        for i in range(n):
             out[i] += jac[a, i] * za
-    for i in range(N_STATE):
+    for i in range(n):
         out[i] *= inv
     for a in range(na):
         out[order[a]] = z[a]
 
 
 @nb.njit(cache=True, _nrt=False)
-def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
+def rosenbrock23(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
 
     ``ref(t) = ref0 + slope (t - t_seg)`` enters through ``ref0`` (the value at
@@ -210,13 +209,14 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, 
     ``ynew``/``fnew``, the end slopes of the step's cubic interpolant into
     ``s0``/``s1`` (see ``hermite``; here the derivatives themselves), and
     returns ``(error norm, rhs evaluations)``.
-    ``ws`` is a (WS_ROWS, N_STATE) scratch array; ``lin = (jac, w, order,
+    ``m`` is the model (``solver.model.Model``): ``m.rhs`` gives the derivative.
+    ``ws`` is a (WS_ROWS, n) scratch array; ``lin = (jac, w, order,
     tdot)`` holds the Jacobian and ``d f/d t`` of ``jacobian`` (taken by the
     caller, who decides when it can be reused), the scratch for ``W``'s
     inverse and the states' order (``feedback_states``).
     """
     jac, w, order, tdot = lin
-    n = N_STATE
+    n = m.n_state
     hd = h * D_ROS
     ytmp = ws[0]
     ftmp = ws[1]
@@ -236,7 +236,7 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, 
     _solve(w, jac, order, diag, rhsv, zb, z, k1)
     for i in range(n):
         ytmp[i] = y[i] + 0.5 * h * k1[i]
-    rhs(ytmp, p, modes, ref0 + slope * 0.5 * h, f1)
+    m.rhs(m.args, ytmp, p, modes, ref0 + slope * 0.5 * h, f1)
     # k2 = W^-1 (f1 - k1) + k1
     for i in range(n):
         rhsv[i] = (f1[i] - k1[i]) * diag
@@ -244,7 +244,7 @@ def rosenbrock23(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, 
     for i in range(n):
         k2[i] += k1[i]
         ynew[i] = y[i] + h * k2[i]
-    rhs(ynew, p, modes, ref0 + slope * h, fnew)
+    m.rhs(m.args, ynew, p, modes, ref0 + slope * h, fnew)
     # k3 = W^-1 (f2 - e32 (k2 - f1) - 2 (k1 - f0) + h d T)
     for i in range(n):
         rhsv[i] = (fnew[i] - E32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f0[i]) + hd * tdot[i]) * diag
@@ -280,10 +280,10 @@ R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.
 
 
 @nb.njit(cache=True, _nrt=False)
-def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
+def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
     jac, w, order, tdot = lin
-    n = N_STATE
+    n = m.n_state
     ytmp = ws[0]
     ftmp = ws[1]
     k1 = ws[3]
@@ -304,21 +304,21 @@ def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, 
     # stage 2
     for i in range(n):
         ytmp[i] = y[i] + R_A21 * k1[i]
-    rhs(ytmp, p, modes, ref0 + slope * R_C2 * h, ftmp)
+    m.rhs(m.args, ytmp, p, modes, ref0 + slope * R_C2 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D2 * tdot[i] + hinv * R_C21 * k1[i]
     _solve(w, jac, order, diag, rhsv, zb, z, k2)
     # stage 3
     for i in range(n):
         ytmp[i] = y[i] + R_A31 * k1[i] + R_A32 * k2[i]
-    rhs(ytmp, p, modes, ref0 + slope * R_C3 * h, ftmp)
+    m.rhs(m.args, ytmp, p, modes, ref0 + slope * R_C3 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D3 * tdot[i] + hinv * (R_C31 * k1[i] + R_C32 * k2[i])
     _solve(w, jac, order, diag, rhsv, zb, z, k3)
     # stage 4
     for i in range(n):
         ytmp[i] = y[i] + R_A41 * k1[i] + R_A42 * k2[i] + R_A43 * k3[i]
-    rhs(ytmp, p, modes, ref0 + slope * R_C4 * h, ftmp)
+    m.rhs(m.args, ytmp, p, modes, ref0 + slope * R_C4 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D4 * tdot[i] + hinv * (R_C41 * k1[i] + R_C42 * k2[i] + R_C43 * k3[i])
     _solve(w, jac, order, diag, rhsv, zb, z, k4)
@@ -326,21 +326,21 @@ def rodas4(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, 
     ref1 = ref0 + slope * h
     for i in range(n):
         ytmp[i] = y[i] + R_A51 * k1[i] + R_A52 * k2[i] + R_A53 * k3[i] + R_A54 * k4[i]
-    rhs(ytmp, p, modes, ref1, ftmp)
+    m.rhs(m.args, ytmp, p, modes, ref1, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + hinv * (R_C51 * k1[i] + R_C52 * k2[i] + R_C53 * k3[i] + R_C54 * k4[i])
     _solve(w, jac, order, diag, rhsv, zb, z, k5)
     # stage 6: from the embedded (third-order) solution to the fourth-order one
     for i in range(n):
         ytmp[i] += k5[i]
-    rhs(ytmp, p, modes, ref1, ftmp)
+    m.rhs(m.args, ytmp, p, modes, ref1, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + hinv * (R_C61 * k1[i] + R_C62 * k2[i] + R_C63 * k3[i] + R_C64 * k4[i]
                                     + R_C65 * k5[i])
     _solve(w, jac, order, diag, rhsv, zb, z, k6)
     for i in range(n):
         ynew[i] = ytmp[i] + k6[i]
-    rhs(ynew, p, modes, ref1, fnew)
+    m.rhs(m.args, ynew, p, modes, ref1, fnew)
     # RODAS's own dense output, y0 (1 - th) + th (y1 + (1 - th) (c3 + th c4)), written
     # as a cubic Hermite: its end slopes are (y1 - y0 + c3)/h and (y1 - y0 - c3 - c4)/h.
     # Unlike the Hermite cubic through f0 and f1 it stays accurate for the stiff
@@ -367,9 +367,9 @@ C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
 @nb.njit(cache=True, _nrt=False)
-def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
+def dopri5(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
-    n = N_STATE
+    n = m.n_state
     k2 = ws[0]
     k3 = ws[1]
     k4 = ws[2]
@@ -379,22 +379,22 @@ def dopri5(t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, 
     err = ws[6]
     for i in range(n):
         yt[i] = y[i] + h * A21 * f0[i]
-    rhs(yt, p, modes, ref0 + slope * C2 * h, k2)
+    m.rhs(m.args, yt, p, modes, ref0 + slope * C2 * h, k2)
     for i in range(n):
         yt[i] = y[i] + h * (A31 * f0[i] + A32 * k2[i])
-    rhs(yt, p, modes, ref0 + slope * C3 * h, k3)
+    m.rhs(m.args, yt, p, modes, ref0 + slope * C3 * h, k3)
     for i in range(n):
         yt[i] = y[i] + h * (A41 * f0[i] + A42 * k2[i] + A43 * k3[i])
-    rhs(yt, p, modes, ref0 + slope * C4 * h, k4)
+    m.rhs(m.args, yt, p, modes, ref0 + slope * C4 * h, k4)
     for i in range(n):
         yt[i] = y[i] + h * (A51 * f0[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
-    rhs(yt, p, modes, ref0 + slope * C5 * h, k5)
+    m.rhs(m.args, yt, p, modes, ref0 + slope * C5 * h, k5)
     for i in range(n):
         yt[i] = y[i] + h * (A61 * f0[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i])
-    rhs(yt, p, modes, ref0 + slope * h, k6)
+    m.rhs(m.args, yt, p, modes, ref0 + slope * h, k6)
     for i in range(n):
         ynew[i] = y[i] + h * (B1 * f0[i] + B3 * k3[i] + B4 * k4[i] + B5 * k5[i] + B6 * k6[i])
-    rhs(ynew, p, modes, ref0 + slope * h, fnew)
+    m.rhs(m.args, ynew, p, modes, ref0 + slope * h, fnew)
     for i in range(n):
         err[i] = h * (E1 * f0[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * fnew[i])
         s0[i] = f0[i]

@@ -7,13 +7,13 @@
 """
 import numba as nb
 
-from ... import layout as L
 from .base import Effect, Param, register
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def voltage(u, v0):
-    """Voltage (V) the motor sees for command ``u`` (V)."""
+def voltage(p, o, u):
+    """Voltage (V) the motor sees for command ``u`` (V); threshold ``p[o]`` (V)."""
+    v0 = p[o]
     if u > v0:
         return u - v0
     if u < -v0:
@@ -32,12 +32,19 @@ class AmplifierDeadzone(Effect):
     signature = "voltage lost in a dead zone"
     acts_on = "voltage"
     params = (Param("threshold", "V", 0.0, 1e3, _scale, "command below which the output is 0"),)
+    term = voltage
+    places = ("voltage",)
+    slots = ("threshold, V",)
 
-    def pack(self, values, p, plant):
+    def compiled(self, values, plant):
         if plant.drive != "voltage":
             raise ValueError("amplifier_deadzone acts on a voltage; this plant is driven by a "
                              f"{plant.drive}")
-        p[L.P_DEADZONE] = float(values["threshold"])
+        return "voltage", (float(values["threshold"]),)
+
+    def piecewise_linear(self, values):
+        """Only without a dead zone (threshold 0)."""
+        return float(values["threshold"]) == 0.0
 
     def applicable(self, plant, signals):
         return plant.drive == "voltage"

@@ -1,33 +1,51 @@
 """What an effect is, and the registry that names them (SPEC section 5).
 
 An effect is one small piece of physics a plant file adds under ``effects:``
-as ``{type: NAME, <parameters>}``.  It declares
+as ``{type: NAME, <parameters>}``.  Its module -- one file, in this package or
+anywhere (``effect_modules:`` in a plant file, see ``user.py``) -- declares
+everything the rest of gearbench needs:
 
 * ``name``: the SPEC's name, the key of the registry;
-* ``acts_on``: where it acts (``"motor torque"``, ``"load torque"``,
-  ``"voltage"``, ``"measured signal"``, ``"plant structure"``);
+* ``acts_on``: where it acts, in words (``"motor or load torque"``,
+  ``"voltage"``, ``"mesh angle"``, ``"measured signal"``, ``"plant structure"``);
 * ``params``: its numeric parameters (:class:`Param`: unit, bounds for fitting,
   typical scale), and ``options``: its string choices (``location``, ``signal``);
 * ``signature``: what a record shows when the model lacks it, a key of
   :data:`gearbench.identify.evidence.SIGNATURES` (``"sign of the speed"`` for
   Coulomb friction, ``"a lag"`` for a delay, ...): diagnose's explanations measure it;
 
-and implements one of
+and acts in one of three ways:
 
-* ``pack(values, p, plant)``: write its slots of the compiled parameter vector
-  (``layout.P_*``); its equation lives in a ``@njit(inline="always")`` function
-  in the same module, called by ``effects/compiled.py`` from the right-hand side;
-* ``apply(values, plant)``: return a changed plant (structural effects);
-* ``measure(values, name, y, time_s, plant)``: distort a simulated measured signal.
+* **compiled**: ``term``, a numba function the right-hand side calls, and
+  ``places``, where it may act; ``compiled(values, plant)`` returns
+  ``(place, numbers)``: the place of this instance and the numbers (SI) its
+  term reads as ``p[o], p[o + 1], ...``.  By place, the term is
 
-To add an effect: write a module in this package with a subclass decorated
-with :func:`register`, import it in ``effects/__init__.py``; if it acts in the
-compiled path, give it parameter slots in ``layout.py`` and one call in
-``compiled.py``.
+  - ``"motor"``/``"load"``: ``term(p, o, theta, w, eps)``, the torque (N m)
+    on the rotor or the output shaft at angle ``theta`` (rad) and speed ``w``
+    (rad/s); ``eps`` is the solver's friction smoothing speed there (rad/s);
+  - ``"voltage"``: ``term(p, o, u)``, the voltage (V) the motor sees for
+    command ``u`` (V);
+  - ``"mesh"``: ``term(p, o, theta_l)``, ``(e, de/dtheta_l)``: an offset (rad)
+    of the mesh's relative angle as the contact sees it, at output angle
+    ``theta_l`` (rad), and its slope.
+
+  It also declares ``piecewise_linear(values)`` (the term is affine in the
+  state, so the solver may reuse a Jacobian; the default says no) and
+  ``steady_drag(values, plant)`` (what it resists steady forward motion with,
+  for ``info`` and the top speed; None for none).  The parameter layout,
+  packing, the Jacobian reuse and the steady drag are derived from these
+  declarations (``codegen.py``, ``pack.py``, ``linear.py``).
+* **structural**: ``apply(values, plant)`` returns a changed plant;
+* **sensor**: ``measure(values, name, y, time_s, plant)`` distorts a measured signal.
+
+To add an effect: write a module with a subclass decorated with
+:func:`register`; a built-in one is imported in ``effects/__init__.py`` (its
+one registration line).  ``docs/writing-an-effect.md`` walks through one.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -50,6 +68,7 @@ class Param:
     integer: bool = False
     optional: bool = False
     start: float | None = None  # where a fit starts (default: the typical value)
+    carriage: str | None = None  # its name with ``location: carriage`` (a force, N), if it differs
 
     def typical(self, plant, values: dict) -> float:
         """A typical value on ``plant`` (the effect's options in ``values``)."""
@@ -64,13 +83,32 @@ class Effect:
     params: ClassVar[tuple[Param, ...]] = ()
     options: ClassVar[dict[str, tuple[str, ...]]] = {}
     defaults: ClassVar[dict[str, Any]] = {}
+    term: ClassVar[Any] = None
+    places: ClassVar[tuple[str, ...]] = ()
+    slots: ClassVar[tuple[str, ...]] = ()  # what the term reads at p[o], p[o + 1], ... (SI)
+    source: ClassVar[str | None] = None  # the file of an effect from outside the package
 
     def fit_params(self, values: dict) -> tuple[Param, ...]:
         """The parameters a fit adjusts (the given optional ones too)."""
         return tuple(q for q in self.params if not q.optional or q.name in values)
 
-    def pack(self, values: dict, p: np.ndarray, plant) -> None:
-        """Write this effect's slots of the compiled parameter vector."""
+    def compiled(self, values: dict, plant) -> tuple[str, tuple[float, ...]]:
+        """``(place, numbers)``: where this instance's ``term`` acts, one of
+        ``places``, and the numbers it reads there (SI); raise ValueError for
+        a plant it cannot act on."""
+        raise NotImplementedError(f"effect {self.name!r} has a term but no compiled()")
+
+    def piecewise_linear(self, values: dict) -> bool:
+        """True when this instance's term is affine in the state (a spring, a
+        constant, a symmetric viscous term): the solver may then reuse a
+        Jacobian while the modes stay."""
+        return False
+
+    def steady_drag(self, values: dict, plant) -> tuple[str, float, float] | None:
+        """``(shaft, b, t0)``: in steady forward motion this instance resists
+        with ``b w + t0`` at ``shaft`` (``"motor"`` or ``"load"``; b in
+        N m s/rad, t0 in N m); None when it has no single steady drag."""
+        return None
 
     def apply(self, values: dict, plant):
         """A structural effect returns the changed plant; others return it unchanged."""
@@ -106,10 +144,29 @@ class Effect:
 REGISTRY: dict[str, Effect] = {}
 
 
+PLACES = ("motor", "load", "voltage", "mesh")
+
+
 def register(cls):
-    """Class decorator: put one instance of an effect class in the registry under its name."""
-    if not cls.name or cls.name in REGISTRY:
-        raise ValueError(f"effect name {cls.name!r} missing or registered twice")
+    """Class decorator: put one instance of an effect class in the registry under its name.
+
+    An effect module outside the package (``user.load``) registers with its
+    file as ``source``; loading the same file again replaces its effects."""
+    import sys
+    module = sys.modules.get(cls.__module__)
+    path = getattr(module, "__file__", None)
+    inside = cls.__module__.startswith(__package__ + ".")
+    if not cls.name:
+        raise ValueError(f"effect class {cls.__qualname__} has no name")
+    old = REGISTRY.get(cls.name)
+    if old is not None and (inside or old.source != path):
+        raise ValueError(f"effect name {cls.name!r} is registered twice "
+                         f"({old.source or type(old).__module__} and {path or cls.__module__})")
+    if cls.term is not None:
+        bad = [q for q in cls.places if q not in PLACES] or ([] if cls.places else ["(none)"])
+        if bad:
+            raise ValueError(f"effect {cls.name!r}: places {bad} must be among {PLACES}")
+    cls.source = None if inside else path
     REGISTRY[cls.name] = cls()
     return cls
 
@@ -117,13 +174,28 @@ def register(cls):
 @dataclass(frozen=True)
 class AddedEffect:
     """An effect in a plant: its registered name and its parameter values
-    (numbers in the units of its :class:`Param` entries, strings for options)."""
+    (numbers in the units of its :class:`Param` entries, strings for options).
+
+    ``source``: the file of an effect from outside the package, taken from the
+    registry, so that a process that unpickles it (a worker) can load it."""
     name: str
     values: dict
+    source: str | None = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self):
+        if self.source is None and self.name in REGISTRY:
+            object.__setattr__(self, "source", REGISTRY[self.name].source)
 
     @property
     def effect(self) -> Effect:
-        return REGISTRY[self.name]
+        if self.name not in REGISTRY and self.source:
+            from .user import load
+            load(self.source)
+        try:
+            return REGISTRY[self.name]
+        except KeyError:
+            raise KeyError(f"effect {self.name!r} is not registered; name its module in the plant "
+                           f"file's effect_modules") from None
 
     def to_dict(self) -> dict:
         return {"type": self.name, **self.values}

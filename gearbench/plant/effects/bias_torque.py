@@ -6,9 +6,16 @@ Gravity on an incline, a drive offset (EMPS's ``offset``, which resists:
 ``T_b = -offset``).  ``torque`` in N m at the output shaft, or ``force`` in N
 with ``location: carriage`` on a leadscrew plant.
 """
-from ... import layout as L
+import numba as nb
+
 from .base import Effect, Param, register
 from .location import at_shaft, torque_scale
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def torque(p, o, theta, w, eps):
+    """The constant torque ``p[o]`` on the output shaft, N m."""
+    return p[o]
 
 
 def _scale(plant, values):
@@ -23,7 +30,17 @@ class BiasTorque(Effect):
     acts_on = "load torque"
     options = {"location": ("load", "carriage")}
     params = (Param("torque", "N m (N at the carriage: force)", -1e6, 1e6, _scale,
-                    "constant torque, positive forward"),)
+                    "constant torque, positive forward", carriage="force"),)
+    term = torque
+    places = ("load",)
+    slots = ("torque, N m",)
 
-    def pack(self, values, p, plant):
-        p[L.P_BIAS] += at_shaft(values, plant, "torque", 1)[1]
+    def compiled(self, values, plant):
+        return "load", (at_shaft(values, plant, "torque", 1)[1],)
+
+    def piecewise_linear(self, values):
+        return True
+
+    def steady_drag(self, values, plant):
+        """It helps forward motion when positive."""
+        return "load", 0.0, -at_shaft(values, plant, "torque", 1)[1]

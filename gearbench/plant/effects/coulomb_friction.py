@@ -14,17 +14,17 @@ import math
 
 import numba as nb
 
-from ... import layout as L
 from .base import Effect, Param, register
-from .location import LOCATIONS, add, at_shaft, key, slot, torque_scale
+from .location import LOCATIONS, at_shaft, key, torque_scale
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def torque(w, eps, t_pos, t_neg):
-    """Friction torque on the body turning at ``w`` (rad/s), N m."""
-    level = t_pos if w >= 0.0 else t_neg
+def torque(p, o, theta, w, eps):
+    """Friction torque on the body turning at ``w`` (rad/s), N m; levels
+    ``p[o]`` forward, ``p[o + 1]`` backward (N m)."""
+    level = p[o] if w >= 0.0 else p[o + 1]
     if level == 0.0:
-        return 0.0  # absent: no tanh in the hot path of a plant without friction
+        return 0.0
     return -level * math.tanh(w / eps)
 
 
@@ -37,10 +37,14 @@ class CoulombFriction(Effect):
     options = {"location": LOCATIONS}
     params = (
         Param("torque", "N m (N at the carriage: force)", 0.0, 1e6, torque_scale,
-              "friction level (moving forward, or both ways)"),
+              "friction level (moving forward, or both ways)", carriage="force"),
         Param("torque_negative", "N m (N at the carriage: force_negative)", 0.0, 1e6, torque_scale,
-              "level moving backward when friction is asymmetric", optional=True),
+              "level moving backward when friction is asymmetric", optional=True,
+              carriage="force_negative"),
     )
+    term = torque
+    places = ("motor", "load")
+    slots = ("torque forward, N m", "torque backward, N m")
 
     def simpler(self, values):
         """The symmetric form, when asymmetric."""
@@ -49,9 +53,16 @@ class CoulombFriction(Effect):
             return None
         return self.name, {k: v for k, v in values.items() if k != neg}
 
-    def pack(self, values, p, plant):
+    def compiled(self, values, plant):
         loc, tc = at_shaft(values, plant, "torque", 1)
         tn = at_shaft(values, plant, "torque_negative", 1)[1] if (
             "torque_negative" in values or "force_negative" in values) else tc
-        add(p, slot(loc, L.P_COUL_M, L.P_COUL_L), tc)
-        add(p, slot(loc, L.P_COUL_M_NEG, L.P_COUL_L_NEG), tn)
+        return loc, (tc, tn)
+
+    def piecewise_linear(self, values):
+        """Only without friction (levels 0)."""
+        return all(float(values.get(key(values, k), 0.0)) == 0.0 for k in ("torque", "torque_negative"))
+
+    def steady_drag(self, values, plant):
+        loc, tc = at_shaft(values, plant, "torque", 1)
+        return loc, 0.0, tc

@@ -9,14 +9,14 @@ import math
 
 import numba as nb
 
-from ... import layout as L
 from .base import Effect, Param, register
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def torque(theta_l, k, theta_0):
-    """Spring torque on the load at output angle ``theta_l`` (rad), N m."""
-    return -k * (theta_l - theta_0)
+def torque(p, o, theta, w, eps):
+    """Spring torque on the load at output angle ``theta`` (rad), N m; stiffness
+    ``p[o]`` (N m/rad), rest angle ``p[o + 1]`` (rad)."""
+    return -p[o] * (theta - p[o + 1])
 
 
 def _stiffness_scale(plant, values):
@@ -35,7 +35,12 @@ class LoadSpring(Effect):
         Param("rest_angle_deg", "deg", -1e6, 1e6, 10.0, "output angle where the spring is relaxed",
               start=0.0),
     )
+    term = torque
+    places = ("load",)
+    slots = ("stiffness, N m/rad", "rest angle, rad")
 
-    def pack(self, values, p, plant):
-        p[L.P_SPRING_K] += float(values["stiffness"])
-        p[L.P_SPRING_TH0] = math.radians(float(values["rest_angle_deg"]))
+    def compiled(self, values, plant):
+        return "load", (float(values["stiffness"]), math.radians(float(values["rest_angle_deg"])))
+
+    def piecewise_linear(self, values):
+        return True

@@ -7,20 +7,19 @@ or a coefficient ``c r^2`` at the screw, ``r = lead / 2 pi`` (m/rad).
 """
 from __future__ import annotations
 
-import numpy as np
-
-from ... import layout as L
-
 LOCATIONS = ("motor", "load", "carriage")
-FORCE_NAMES = {"torque": "force", "torque_negative": "force_negative",
-               "coefficient": "coefficient", "coefficient_negative": "coefficient_negative",
-               "static_torque": "static_force", "coulomb_torque": "coulomb_force",
-               "stribeck_speed": "stribeck_speed_m_s"}
+
+
+def force_names() -> dict[str, str]:
+    """Each parameter's name at the carriage, from the effects' declarations
+    (``Param.carriage``): ``torque`` becomes ``force``, ..."""
+    from .base import REGISTRY
+    return {q.name: q.carriage for e in REGISTRY.values() for q in e.params if q.carriage}
 
 
 def key(values: dict, name: str) -> str:
     """The parameter's key in the file: ``torque`` becomes ``force`` at the carriage."""
-    return FORCE_NAMES[name] if values.get("location") == "carriage" else name
+    return force_names().get(name, name) if values.get("location") == "carriage" else name
 
 
 def at_shaft(values: dict, plant, name: str, power: int) -> tuple[str, float]:
@@ -37,15 +36,6 @@ def at_shaft(values: dict, plant, name: str, power: int) -> tuple[str, float]:
             raise ValueError("location 'carriage' needs a plant with a leadscrew")
         return "load", v * plant.leadscrew.radius ** power
     return loc, v
-
-
-def slot(loc: str, motor_slot: int, load_slot: int) -> int:
-    return motor_slot if loc == "motor" else load_slot
-
-
-def add(p: np.ndarray, i: int, v: float) -> None:
-    """Effects add to their slot, so two of a kind at one place sum."""
-    p[i] += v
 
 
 def torque_scale(plant, values: dict) -> float:
@@ -70,7 +60,3 @@ def speed_scale(plant, values: dict) -> float:
 def coefficient_scale(plant, values: dict) -> float:
     """A viscous coefficient that takes a tenth of the drive at typical speed."""
     return torque_scale(plant, values) / speed_scale(plant, values)
-
-
-def friction_eps_slot(loc: str) -> int:
-    return L.P_FRIC_EPS_M if loc == "motor" else L.P_FRIC_EPS_L

@@ -12,14 +12,16 @@ import math
 
 import numba as nb
 
-from ... import layout as L
 from .base import Effect, Param, register
-from .location import LOCATIONS, add, at_shaft, key, slot, speed_scale, torque_scale
+from .location import LOCATIONS, at_shaft, key, speed_scale, torque_scale
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def torque(w, eps, t_s, t_c, w_s):
-    """Friction torque on the body turning at ``w`` (rad/s), N m."""
+def torque(p, o, theta, w, eps):
+    """Friction torque on the body turning at ``w`` (rad/s), N m; ``p[o]`` the
+    breakaway level, ``p[o + 1]`` the Coulomb level (N m), ``p[o + 2]`` the
+    Stribeck speed (rad/s)."""
+    t_s, t_c, w_s = p[o], p[o + 1], p[o + 2]
     if w_s <= 0.0:
         return 0.0
     # a breakaway below the sliding level is not Stribeck's curve: it adds nothing
@@ -43,12 +45,15 @@ class StribeckFriction(Effect):
     options = {"location": LOCATIONS}
     params = (
         Param("static_torque", "N m (N at the carriage: static_force)", 0.0, 1e6, _breakaway_scale,
-              "breakaway level T_s"),
+              "breakaway level T_s", carriage="static_force"),
         Param("coulomb_torque", "N m (N at the carriage: coulomb_force)", 0.0, 1e6, torque_scale,
-              "sliding level T_c"),
+              "sliding level T_c", carriage="coulomb_force"),
         Param("stribeck_speed", "rad/s (m/s at the carriage: stribeck_speed_m_s)", 1e-9, 1e6,
-              _stribeck_speed, "speed w_s over which T_s decays to T_c"),
+              _stribeck_speed, "speed w_s over which T_s decays to T_c", carriage="stribeck_speed_m_s"),
     )
+    term = torque
+    places = ("motor", "load")
+    slots = ("static torque, N m", "Coulomb torque, N m", "Stribeck speed, rad/s")
 
     def simpler(self, values):
         """Coulomb friction at the sliding level (T_s = T_c)."""
@@ -56,10 +61,17 @@ class StribeckFriction(Effect):
         out[key(values, "torque")] = values[key(values, "coulomb_torque")]
         return "coulomb_friction", out
 
-    def pack(self, values, p, plant):
+    def compiled(self, values, plant):
         loc, ts = at_shaft(values, plant, "static_torque", 1)
         tc = at_shaft(values, plant, "coulomb_torque", 1)[1]
         ws = at_shaft(values, plant, "stribeck_speed", -1)[1]
-        add(p, slot(loc, L.P_STR_TS_M, L.P_STR_TS_L), ts)
-        add(p, slot(loc, L.P_STR_TC_M, L.P_STR_TC_L), tc)
-        p[slot(loc, L.P_STR_WS_M, L.P_STR_WS_L)] = ws
+        return loc, (ts, tc, ws)
+
+    def piecewise_linear(self, values):
+        """Only without friction (levels 0)."""
+        return all(float(values[key(values, k)]) == 0.0 for k in ("static_torque", "coulomb_torque"))
+
+    def steady_drag(self, values, plant):
+        """The sliding level: at speed the breakaway excess has decayed (exact for |w| >> w_s)."""
+        loc, tc = at_shaft(values, plant, "coulomb_torque", 1)
+        return loc, 0.0, tc

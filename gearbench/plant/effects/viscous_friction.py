@@ -7,15 +7,15 @@ carriage; ``coefficient_negative`` makes it asymmetric (EMPS's Fv+ / Fv-).
 """
 import numba as nb
 
-from ... import layout as L
 from .base import Effect, Param, register
-from .location import LOCATIONS, add, at_shaft, key, coefficient_scale, slot
+from .location import LOCATIONS, at_shaft, key, coefficient_scale
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def torque(w, c_pos, c_neg):
-    """Viscous friction torque on the body turning at ``w`` (rad/s), N m."""
-    return -(c_pos if w >= 0.0 else c_neg) * w
+def torque(p, o, theta, w, eps):
+    """Viscous friction torque on the body turning at ``w`` (rad/s), N m;
+    coefficients ``p[o]`` forward, ``p[o + 1]`` backward (N m s/rad)."""
+    return -(p[o] if w >= 0.0 else p[o + 1]) * w
 
 
 @register
@@ -27,10 +27,14 @@ class ViscousFriction(Effect):
     options = {"location": LOCATIONS}
     params = (
         Param("coefficient", "N m s/rad (N s/m at the carriage)", 0.0, 1e9, coefficient_scale,
-              "friction per unit speed (forward, or both ways)"),
+              "friction per unit speed (forward, or both ways)", carriage="coefficient"),
         Param("coefficient_negative", "N m s/rad (N s/m at the carriage)", 0.0, 1e9, coefficient_scale,
-              "coefficient moving backward when asymmetric", optional=True),
+              "coefficient moving backward when asymmetric", optional=True,
+              carriage="coefficient_negative"),
     )
+    term = torque
+    places = ("motor", "load")
+    slots = ("coefficient forward, N m s/rad", "coefficient backward, N m s/rad")
 
     def simpler(self, values):
         """The symmetric form, when asymmetric."""
@@ -39,9 +43,17 @@ class ViscousFriction(Effect):
             return None
         return self.name, {k: v for k, v in values.items() if k != neg}
 
-    def pack(self, values, p, plant):
+    def compiled(self, values, plant):
         loc, c = at_shaft(values, plant, "coefficient", 2)
         cn = at_shaft(values, plant, "coefficient_negative", 2)[1] if (
             "coefficient_negative" in values) else c
-        add(p, slot(loc, L.P_VISC_M, L.P_VISC_L), c)
-        add(p, slot(loc, L.P_VISC_M_NEG, L.P_VISC_L_NEG), cn)
+        return loc, (c, cn)
+
+    def piecewise_linear(self, values):
+        """Linear when symmetric."""
+        neg = key(values, "coefficient_negative")
+        return neg not in values or float(values[neg]) == float(values[key(values, "coefficient")])
+
+    def steady_drag(self, values, plant):
+        loc, c = at_shaft(values, plant, "coefficient", 2)
+        return loc, c, 0.0

@@ -1,0 +1,226 @@
+"""The effects' compiled terms, laid out and bundled into one compiled model.
+
+From the registered effects' declarations (``base.py``: ``term``, ``places``,
+``slots``) this module derives
+
+* the **layout**: each compiled effect gets, at each of its places, a block
+  of ``1 + len(slots)`` slots of the parameter vector after the plant's and
+  controller's (``layout.P_SIZE``): a count of the instances there (0 =
+  absent), then the numbers its term reads.  Blocks follow the registry's
+  order, so loading an effect module only appends blocks;
+* the **sums**: one numba function per place that adds the torques of the
+  effects present there (``motor``, ``load``), composes the voltage maps
+  (``voltage``) or adds the mesh offsets (``mesh``), generated as Python
+  source with the offsets as constants;
+* the **compiled model**: a module with ``plant.model``'s contract, those
+  sums as its ``args``, and its entry points ``integrate`` and
+  ``derivative``, compiled and cached by numba.
+
+The generated module is a file under numba's cache folder, named by a hash
+of the effects it holds (names and their modules' sources), so numba can
+cache its entry points on disk, and a process that needs the same effects
+(a worker) imports the same file.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import inspect
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from ... import layout as L
+from .base import REGISTRY
+
+VERSION = "1"  # of the generated source's shape
+
+_MODELS: dict = {}
+
+
+@dataclass(frozen=True)
+class Block:
+    name: str     # the effect
+    place: str    # "motor", "load", "voltage" or "mesh"
+    offset: int   # its count slot; its numbers follow
+    size: int     # numbers after the count
+
+
+def term_of(name: str):
+    """The compiled term of the registered effect ``name`` (the function itself:
+    a numba dispatcher read through an instance would be bound as a method)."""
+    return inspect.getattr_static(type(REGISTRY[name]), "term")
+
+
+def compiled_effects() -> list:
+    """The registered effects with a compiled term, in registry order."""
+    return [e for e in REGISTRY.values() if e.term is not None]
+
+
+def blocks() -> dict[tuple[str, str], Block]:
+    """The layout of the effects' slots, keyed by (effect, place)."""
+    out, offset = {}, L.P_SIZE
+    for e in compiled_effects():
+        for place in e.places:
+            out[(e.name, place)] = Block(e.name, place, offset, len(e.slots))
+            offset += 1 + len(e.slots)
+    return out
+
+
+def size() -> int:
+    """Length of the parameter vector with every registered effect's blocks."""
+    return max((b.offset + 1 + b.size for b in blocks().values()), default=L.P_SIZE)
+
+
+def pack_effects(effects, plant, p) -> bool:
+    """Add each compiled effect of ``effects`` to its block of ``p``; two of a
+    kind at one place add their numbers.  Returns whether they all keep the
+    right-hand side piecewise-linear."""
+    table = blocks()
+    linear = True
+    for added in effects:
+        e = added.effect
+        if e.term is None:
+            continue
+        place, numbers = e.compiled(added.values, plant)
+        b = table[(e.name, place)]
+        if len(numbers) != b.size:
+            raise ValueError(f"effect {e.name!r} gave {len(numbers)} numbers for its {b.size} slots {e.slots}")
+        p[b.offset] += 1.0
+        p[b.offset + 1:b.offset + 1 + b.size] += numbers
+        linear = linear and e.piecewise_linear(added.values)
+    return linear
+
+
+_TORQUE = '''
+@nb.njit(inline="always", _nrt=False)
+def {place}(p, theta, w, eps):
+    """Torque of the effects on the {body} at angle theta (rad), speed w (rad/s), N m."""
+    t = 0.0
+{lines}    return t
+'''
+_VOLTAGE = '''
+@nb.njit(inline="always", _nrt=False)
+def voltage(p, u):
+    """The voltage (V) the motor sees for command u (V)."""
+{lines}    return u
+'''
+_MESH = '''
+@nb.njit(inline="always", _nrt=False)
+def mesh(p, theta):
+    """Offset of the mesh's relative angle (rad) at output angle theta (rad), and its slope."""
+    e = 0.0
+    de = 0.0
+{lines}    return e, de
+'''
+_TAIL = '''
+MODEL = sys.modules[__name__]  # this module is the model (solver.model's contract) ...
+args = MODEL                   # ... and its args: the sums above (fx in plant/rhs.py)
+
+
+@nb.njit(cache=True)
+def integrate(p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
+    return _solver.integrate(MODEL, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax,
+                             method, max_steps)
+
+
+@nb.njit(cache=True)
+def derivative(p, x, modes, ref):
+    """dx/dt at state x in the given modes and input ref."""
+    out = np.empty_like(x)
+    rhs(args, x, p, modes, ref, out)
+    return out
+
+
+@nb.njit(cache=True)
+def feedback_order(p):
+    """The states the right-hand side reads, first, and their count."""
+    return feedback(args, p)
+
+
+@nb.njit(cache=True)
+def jacobian(t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb):
+    """The solver's difference Jacobian of this model (``solver.steppers.jacobian``)."""
+    return _steppers.jacobian(MODEL, t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb)
+'''
+
+
+def term_module(name: str, source_file: str | None):
+    """The module that holds effect ``name``'s term (loading a file first when
+    the effect is not registered) and the term's name there."""
+    if name not in REGISTRY and source_file:
+        from .user import load
+        load(source_file)
+    term = term_of(name)
+    module = sys.modules[type(REGISTRY[name]).__module__]
+    for attr, value in vars(module).items():
+        if value is term:
+            return module, attr
+    raise ValueError(f"effect {name!r}: its term must be a function defined at the top of its module "
+                     f"{module.__name__}")
+
+
+def source() -> str:
+    """The generated module's source for the registered effects.
+
+    Terms are called as attributes of their modules (a module is nothing at
+    run time, so the compiled entry points can be cached); the sums are plain
+    functions, not numba-inlined (LLVM inlines what pays)."""
+    table = blocks()
+    names = {}
+    for b in table.values():
+        names.setdefault(b.name, f"_e{len(names)}")
+    head = ['"""Generated by gearbench.plant.effects.codegen: the gear model with these effects."""',
+            "import sys", "", "import numba as nb", "import numpy as np", "",
+            "from gearbench.plant.effects.codegen import term_module",
+            "from gearbench.plant.model import *  # noqa: F401,F403  the model's contract (its __all__)",
+            "from gearbench.solver import integrate as _solver",
+            "from gearbench.solver import steppers as _steppers", ""]
+    for name, var in names.items():
+        head.append(f"{var}, _ = term_module({name!r}, {REGISTRY[name].source!r})")
+    attrs = {name: term_module(name, REGISTRY[name].source)[1] for name in names}
+
+    def lines(place, call):
+        return "".join(f"    if p[{b.offset}] != 0.0:\n        "
+                       f"{call.format(t=names[b.name] + '.' + attrs[b.name], o=b.offset + 1)}\n"
+                       for b in table.values() if b.place == place)
+    body = [_TORQUE.format(place="motor", body="rotor", lines=lines("motor", "t += {t}(p, {o}, theta, w, eps)")),
+            _TORQUE.format(place="load", body="output shaft", lines=lines("load", "t += {t}(p, {o}, theta, w, eps)")),
+            _VOLTAGE.format(lines=lines("voltage", "u = {t}(p, {o}, u)")),
+            _MESH.format(lines=lines("mesh", "a, b = {t}(p, {o}, theta)\n        e += a\n        de += b"))]
+    return "\n".join(head) + "\n" + "\n".join(body) + f"\nSIZE = {size()}  # length of the parameter vector\n" + _TAIL
+
+
+def _folder() -> Path:
+    base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache" / "gearbench")
+    return Path(base) / "models"
+
+
+def compiled_model():
+    """The generated module for the effects registered now (written and
+    imported once per set of effects)."""
+    state = tuple((e.name, e.source) for e in compiled_effects())
+    if state not in _MODELS:
+        _MODELS[state] = _generate()
+    return _MODELS[state]
+
+
+def _generate():
+    text = source()
+    key = hashlib.sha256((VERSION + text + "".join(
+        Path(e.source).read_text() for e in compiled_effects() if e.source)).encode()).hexdigest()[:16]
+    name = f"gearbench_model_{key}"
+    if name in sys.modules:
+        return sys.modules[name]
+    path = _folder() / f"{name}.py"
+    if not path.exists() or path.read_text() != text:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # atomic: a concurrent process writes the same text
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
