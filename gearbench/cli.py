@@ -6,7 +6,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import click
-from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,  # noqa: F401
+from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,
                          is_interrupt, stdout)
 
 
