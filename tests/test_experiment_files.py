@@ -315,3 +315,28 @@ def test_inline_plant_problems_carry_plant_prefix(tmp_path):
 def test_experiment_yaml_syntax_error(tmp_path):
     path = write(tmp_path, "bad.yaml", "duration_s: 10\ncontrollers:\n  - {kind: p, kp: 50\n")
     assert error_of(load_experiment, path).startswith("bad.yaml: YAML syntax error at line")
+
+
+# ---------------------------------------------------- shift_deg against the resolved plant
+
+RIGID = {"motor": SAMPLE["motor"], "gear": {"ratio": 100.0, "rigid": True}, "load": SAMPLE["load"]}
+ZERO_CLEARANCE = dict(SAMPLE, gear=dict(SAMPLE["gear"], backlash_deg=0.0))
+
+
+@pytest.mark.parametrize("base", [RIGID, ZERO_CLEARANCE], ids=["rigid", "mesh without clearance"])
+@pytest.mark.parametrize("shift_deg, ok", [(1.0, True), (2.0, True), (2.5, False)])
+def test_shift_deg_is_checked_against_the_clearance_of_a_backlash_effect(tmp_path, base, shift_deg, ok):
+    """The rule: 0 <= shift_deg <= the clearance, here 2 deg from the backlash effect
+    (gear.backlash_deg is 0 or absent)."""
+    write(tmp_path, "plants/p.yaml", dict(base, effects=[{"type": "backlash", "backlash_deg": 2.0}]))
+    text = edit(edit(EXPERIMENT, "plants/thesis_gear.yaml", "plants/p.yaml"), "shift_deg: 1.5",
+                f"shift_deg: {shift_deg}")
+    text = edit(edit(text, "reference: thesis_table1.csv\n", ""), "initial_delta_deg: 0.5", "initial_delta_deg: 0")
+    path = write(tmp_path, "table1.yaml", text)
+    if ok:
+        exp = load_experiment(path)
+        assert exp.shift_deg == shift_deg and exp.plant.gear.backlash_deg == 0.0
+        assert exp.plant.resolved().gear.backlash_deg == 2.0
+    else:
+        msg = error_of(load_experiment, path)
+        assert "shift_deg must lie between 0 and the clearance" in msg and "= 2 deg, got 2.5" in msg

@@ -738,9 +738,10 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
     if plant is not None:
         clearance = plant.gear.backlash_deg
         shift_deg = top.get("shift_deg")
-        if shift_deg is not None and shift_deg > clearance:
-            problems.append(f"shift_deg must lie between 0 and the clearance gear.backlash_deg = "
-                            f"{clearance:g} deg, got {shift_deg!r}")
+        resolved = plant.resolved().gear.backlash_deg  # a backlash effect's clearance counts
+        if shift_deg is not None and shift_deg > resolved:
+            problems.append(f"shift_deg must lie between 0 and the clearance (gear.backlash_deg, or a "
+                            f"backlash effect's) = {resolved:g} deg, got {shift_deg!r}")
         d0 = top.get("initial_delta_deg", 0.0)
         if abs(d0) > clearance / 2.0:
             problems.append(f"initial_delta_deg must lie within +-{clearance / 2.0:g} deg (half of "
