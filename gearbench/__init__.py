@@ -3,24 +3,20 @@
 The compiled core is cached on disk by numba.  Numba only checks the file of
 the function it compiles, not the functions it calls in other modules, so a
 stale cache could survive an edit of the physics.  The cache folder is
-therefore keyed by a hash of every compiled module's source.
+therefore keyed by :func:`gearbench.physics_hash.physics_digest`, the hash of
+the physics source (the one a sweep's resume keys use too).
 """
-import hashlib
 import os
 from pathlib import Path
+
+from .physics_hash import physics_digest as _physics_digest
 
 __version__ = "0.1.0"
 
 
 def _cache_dir() -> str:
-    here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for path in sorted(here.rglob("*.py")):
-        parts = set(path.relative_to(here).parts)
-        if parts & {"plant", "control", "solver"} or path.name == "layout.py":
-            digest.update(path.read_bytes())
     base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-    return str(base / "gearbench" / f"numba-{digest.hexdigest()[:16]}")
+    return str(base / "gearbench" / f"numba-{_physics_digest()}")
 
 
 if "NUMBA_CACHE_DIR" not in os.environ:

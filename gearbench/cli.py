@@ -6,7 +6,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import click
-from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,  # noqa: F401
+from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,
                          is_interrupt, stdout)
 
 
@@ -53,7 +53,7 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
     from .report import tables
     from .report.io import save_figure_atomic, write_csv_atomic, write_text_atomic
     from .report.traces import run_figure, trace_frame
-    from .runner import load_profiles, run_experiment
+    from .runner import experiment_report, load_profiles, run_experiment
 
     try:
         exp = load_experiment(experiment)
@@ -96,41 +96,15 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
         interrupted(f"{len(finished)} of {total} runs of {exp.name} finished; no table written"
                     + (f"; their plots/traces are in {out_dir}" if written else ""))
 
-    from .report import variants
-    if exp.compensators:
-        # compensator comparison: IAE (deg s) and voltage sign changes per compensator
-        runs = variants.compensator_frame(records)
-        columns = variants.COMPENSATOR_COLUMNS
-        title = f"{exp.name}: integrated absolute output error (deg s) and voltage sign changes"
-        markdown = variants.compensator_markdown(runs, title, exp.description)
+    report = experiment_report(exp, records, reference, traced=plot or traces)
+    for name, fig in report.figures.items():
         import matplotlib.pyplot as plt
-        fig = variants.compensator_figure(runs, title)
-        written.append(save_figure_atomic(fig, results_dir / f"{exp.name}.png"))
+        written.append(save_figure_atomic(fig, results_dir / name))
         plt.close(fig)
-        _, shown_runs = variants.trace_cell(records)
-        if not (plot or traces):  # solved for their scores only: solve the shown cell again with its trace
-            from .runner import retrace
-            shown_runs = retrace(exp, shown_runs)
-        fig, _ = variants.compensator_trace_figure(shown_runs, exp.plant)
-        written.append(save_figure_atomic(fig, results_dir / f"{exp.name}_traces.png"))
-        plt.close(fig)
-        shown = runs[columns].to_string(index=False)
-    elif exp.plant.leadscrew is not None:
-        # translational variant: the carriage error in mm s (IAE of theta_l x lead / 2 pi)
-        runs = variants.translational_frame(tables.records_frame(records), exp.plant)
-        columns = variants.TRANSLATIONAL_COLUMNS
-        title = f"{exp.name}: integrated absolute carriage position error (mm s)"
-        markdown = variants.translational_markdown(runs, title, exp.description)
-        shown = runs[columns + ["impacts", "switchings", "status"]].to_string(index=False)
-    else:
-        runs = tables.compare(tables.records_frame(records), reference)
-        columns = tables.TABLE1_COLUMNS
-        title = f"{exp.name}: integrated absolute output error (deg s)"
-        markdown = tables.table1_markdown(runs, title, exp.description)
-        shown = tables.rich_table(runs, title)
+    runs, columns = report.runs, report.columns
     written.append(write_csv_atomic(runs[columns], results_dir / f"{exp.name}.csv"))
     written.append(write_csv_atomic(runs, results_dir / f"{exp.name}_runs.csv"))
-    written.append(write_text_atomic(results_dir / f"{exp.name}.md", markdown))
+    written.append(write_text_atomic(results_dir / f"{exp.name}.md", report.markdown))
     failed = [rec for rec in records if not rec.result.ok]
     if as_json:
         echo_json({"experiment": exp.name, "file": str(experiment), "runs": [
@@ -138,7 +112,7 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
             "failed": [rec.label for rec in failed], "table": runs[columns].to_dict("records"),
             "files": [str(p) for p in written]})
     else:
-        stdout().print(shown)
+        stdout().print(report.shown)
     wall = sum(r.wall_s for r in records)
     console.print(f"{len(records)} runs, {wall:.2f} s of solving; wrote {results_dir / exp.name}.csv/.md",
                   highlight=False)

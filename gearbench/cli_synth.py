@@ -19,8 +19,6 @@ import click
 from .cli_common import _fail, console, echo_json
 
 
-
-
 def _number_or_text(text: str):
     """``"0.05"`` -> 0.05, ``"1000"`` -> 1000, anything else stays a string (an option)."""
     try:
@@ -63,15 +61,12 @@ def parse_effect(spec: str) -> dict:
 
 
 def check_effects(specs: tuple[str, ...], plant) -> list:
-    """Parse and validate ``--effect`` values as a plant file's ``effects:`` entries.
-
-    Uses the plant files' own check (``experiment.files._check_effect``), then
-    that each effect can sit on ``plant`` (e.g. no amplifier dead zone on a
-    torque drive).  Raises ``ConfigError`` (label ``--effect``) listing every
-    problem, each naming the effect and the key.
+    """Parse and validate ``--effect`` values as a plant file's ``effects:`` entries
+    (``experiment.files.check_effects_on``: the registry, then that each effect can sit
+    on ``plant``, e.g. no amplifier dead zone on a torque drive).  Raises ``ConfigError``
+    (label ``--effect``) listing every problem, each naming the effect and the key.
     """
-    from .experiment.files import ConfigError, _check_effect
-    from .plant.pack import pack_plant
+    from .experiment.files import ConfigError, check_effects_on
 
     problems: list[str] = []
     items = []
@@ -81,21 +76,11 @@ def check_effects(specs: tuple[str, ...], plant) -> list:
         except ValueError as exc:
             problems.append(str(exc).removeprefix("--effect "))
     names = [it["type"] for it in items]
-    hidden = []
-    for i, item in enumerate(items):
-        where = item["type"] if names.count(item["type"]) == 1 else f"{item['type']} (#{i + 1})"
-        effect = _check_effect(item, where, plant.leadscrew is not None, problems)
-        if effect is None:
-            continue
-        try:
-            pack_plant(plant.with_effects(*hidden, effect))
-        except ValueError as exc:
-            problems.append(f"{where}: {exc}")
-            continue
-        hidden.append(effect)
+    paths = [name if names.count(name) == 1 else f"{name} (#{i + 1})" for i, name in enumerate(names)]
+    hidden = check_effects_on(plant, items, paths, problems)
     if problems:
         raise ConfigError("--effect", problems)
-    return hidden
+    return list(hidden)
 
 
 def parse_noise(specs: tuple[str, ...]) -> dict[str, float]:

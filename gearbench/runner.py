@@ -1,11 +1,11 @@
-"""Run an experiment's matrix of simulations and collect their scores."""
+"""Run an experiment's matrix of simulations, collect their scores and choose its report."""
 from __future__ import annotations
 
 import re
 import time
 from concurrent.futures import as_completed
-from dataclasses import dataclass, replace
-from typing import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable
 
 from .control.controllers import Controller
 from .experiment.files import Experiment
@@ -125,3 +125,58 @@ def retrace(exp: Experiment, records: list[RunRecord], output_dt_s: float | None
             res.meta["message"] = failure_message(res, exp.plant.name)
         out.append(RunRecord(rec.profile, rec.controller, res, wall))
     return out
+
+
+@dataclass
+class ExperimentReport:
+    """What ``gearbench run`` writes for an experiment (see :func:`experiment_report`)."""
+    kind: str
+    """``compensators``, ``translational`` or ``table1``."""
+    runs: Any
+    """Every score of every run, one row a run (a DataFrame: ``<name>_runs.csv``)."""
+    columns: list[str]
+    """The columns of the summary table ``<name>.csv``."""
+    title: str
+    markdown: str
+    """``<name>.md``."""
+    shown: Any
+    """What the terminal shows: a ``rich.table.Table`` or text."""
+    figures: dict[str, Any] = field(default_factory=dict)
+    """File name -> matplotlib figure (pyplot's: close each once saved)."""
+
+
+def experiment_report(exp: Experiment, records: list[RunRecord], reference=None,
+                      traced: bool = False) -> ExperimentReport:
+    """The report an experiment gets, built from its finished ``records``.
+
+    * with a ``compensator`` list: per compensator the IAE (deg s) and the voltage
+      sign changes, the bars ``<name>.png`` and ``<name>_traces.png``, the traces of
+      the cell with the most sign changes (solved again with their trace unless
+      ``traced``: the records kept their traces);
+    * with a leadscrew: the carriage error, IAE in mm s;
+    * else the IAE (deg s) beside ``reference`` (``report.tables.read_reference``; None: none).
+    """
+    from .report import tables, variants
+    if exp.compensators:
+        runs = variants.compensator_frame(records)
+        title = f"{exp.name}: integrated absolute output error (deg s) and voltage sign changes"
+        columns = variants.COMPENSATOR_COLUMNS
+        figures = {f"{exp.name}.png": variants.compensator_figure(runs, title)}
+        _, shown_runs = variants.trace_cell(records)
+        if not traced:  # solved for their scores only: solve the shown cell again with its trace
+            shown_runs = retrace(exp, shown_runs)
+        figures[f"{exp.name}_traces.png"], _ = variants.compensator_trace_figure(shown_runs, exp.plant)
+        return ExperimentReport("compensators", runs, columns, title,
+                                variants.compensator_markdown(runs, title, exp.description),
+                                runs[columns].to_string(index=False), figures)
+    if exp.plant.leadscrew is not None:
+        runs = variants.translational_frame(tables.records_frame(records), exp.plant)
+        title = f"{exp.name}: integrated absolute carriage position error (mm s)"
+        columns = variants.TRANSLATIONAL_COLUMNS
+        return ExperimentReport("translational", runs, columns, title,
+                                variants.translational_markdown(runs, title, exp.description),
+                                runs[columns + ["impacts", "switchings", "status"]].to_string(index=False))
+    runs = tables.compare(tables.records_frame(records), reference)
+    title = f"{exp.name}: integrated absolute output error (deg s)"
+    return ExperimentReport("table1", runs, tables.TABLE1_COLUMNS, title,
+                            tables.table1_markdown(runs, title, exp.description), tables.rich_table(runs, title))

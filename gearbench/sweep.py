@@ -30,9 +30,10 @@ Results go to ``RESULTS/<experiment name>/sweep.csv``, one line per finished
 point, appended and fsync'ed as it finishes (:class:`SweepStore`).  A point's
 identity is :func:`point_key`: a hash of its parameter values, its run
 (profile with its segments, controller, shift), the parsed experiment (plant
-inlined, so comments do not count) and the source of the physics, so running
-the same sweep again skips every finished point and a sweep killed at any
-moment resumes where it stopped.
+inlined, so comments do not count) and the source of the physics
+(:func:`gearbench.physics_hash.physics_digest`, which keys numba's cache too),
+so running the same sweep again skips every finished point and a sweep killed
+at any moment resumes where it stopped.
 """
 from __future__ import annotations
 
@@ -59,6 +60,7 @@ from . import layout as L
 from .control.controllers import Controller
 from .experiment.files import (ConfigError, Experiment, _resolve, experiment_from_dict, is_file, parse_yaml,
                                read_yaml)
+from .physics_hash import physics_digest
 from .simulate import failure_message, simulate
 from .workers import default_workers, process_pool, worker_count  # noqa: F401 - default_workers re-exported
 
@@ -281,18 +283,6 @@ def _canonical(value: Any) -> Any:
 
 def canonical_json(value: Any) -> str:
     return json.dumps(_canonical(value), sort_keys=True, separators=(",", ":"))
-
-
-def physics_digest() -> str:
-    """Hash of the source that decides a run's numbers (plant, control, solver, layout,
-    simulate): results computed by other physics are not reused."""
-    here = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for path in sorted(here.rglob("*.py")):
-        rel = path.relative_to(here)
-        if rel.parts[0] in ("plant", "control", "solver") or rel.name in ("layout.py", "simulate.py"):
-            h.update(str(rel).encode() + b"\0" + path.read_bytes())
-    return h.hexdigest()[:16]
 
 
 def point_key(experiment_hash: str, params: Mapping[str, Any], run: Mapping[str, Any]) -> str:

@@ -345,3 +345,26 @@ def test_ctrl_c_with_pool_workers_prints_no_worker_traceback(tmp_path):
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     assert not list(out.glob("table1*.*")) and _leftovers(out) == []
+
+
+def test_command_modules_take_their_helpers_from_cli_common_not_cli():
+    """No import circle cli <-> cli_*: the command modules never import gearbench.cli."""
+    import ast
+    package = Path(cli_common.__file__).parent
+    modules = sorted(package.glob("cli_*.py"))
+    assert {m.stem for m in modules} >= {"cli_common", "cli_identify", "cli_import", "cli_synth", "cli_sweep"}
+    for path in modules:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                absolute = node.module if node.level == 0 else f"gearbench.{node.module}" if node.module else "gearbench"
+                names = {absolute} | {f"{absolute}.{a.name}" for a in node.names}
+            elif isinstance(node, ast.Import):
+                names = {a.name for a in node.names}
+            else:
+                continue
+            assert "gearbench.cli" not in names, f"{path.name}:{node.lineno} imports gearbench.cli"
+    code = ("import sys, gearbench.cli_identify, gearbench.cli_import, gearbench.cli_synth, gearbench.cli_sweep, "
+            "gearbench.cli_validate; print('gearbench.cli' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=package.parent).stdout
+    assert out.strip() == "False"

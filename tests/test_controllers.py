@@ -1,10 +1,19 @@
-"""Controllers: what each law does to the motor-side angle, and clear solver failures."""
+"""Controllers: what each law does to the motor-side angle, clear solver failures, and the
+one table that names each kind in every report."""
+import io
 import math
+from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
+import pytest
 
 from gearbench import layout as L
-from gearbench.control.controllers import Controller
+from gearbench.control.controllers import KIND_NAMES, Controller, kind_name
+from gearbench.experiment.files import load_experiment
+from gearbench.report import tables, variants
+from gearbench.report.stability import describe_controller
 from gearbench.simulate import Segments, SolverOptions, failure_message, simulate
 
 HOLD = Segments(t=np.array([0.0]), v=np.array([math.radians(10.0)]), s=np.array([0.0]))
@@ -70,3 +79,54 @@ def test_failed_run_says_which_where_and_why(plant):
     msg = failure_message(run, plant.name)
     assert "tiny-budget" in msg and "t = " in msg and "likely cause" in msg
     assert 0.0 < run.stats[L.S_T_FAIL] < 1.0
+
+
+# ---------------------------------------------------------------- controller names, written once
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_kind_name():
+    assert [kind_name(k) for k in ("open", "bang_bang", "p", "pi", "pid")] == ["open", "bang-bang", "P", "PI", "PID"]
+    assert kind_name("p", 50.0) == "P, Kp=50" and kind_name("pi", 0.5) == "PI, Kp=0.5"
+    assert kind_name("bang_bang", float("nan")) == "bang-bang" and kind_name("p", None) == "P"
+    assert kind_name("other") == "other"
+
+
+@pytest.mark.parametrize("name", ["table1", "table1_translational", "compensators"])
+def test_committed_markdown_tables_regenerate_from_their_runs(name):
+    """The committed results/<name>.md is what the report writers make of results/<name>_runs.csv:
+    the controller names there did not change."""
+    exp = load_experiment(REPO / "experiments" / f"{name}.yaml")
+    runs = pd.read_csv(REPO / "results" / f"{name}_runs.csv")
+    if name == "table1":
+        md = tables.table1_markdown(runs, f"{exp.name}: integrated absolute output error (deg s)",
+                                    exp.description)
+    elif name == "table1_translational":
+        md = variants.translational_markdown(
+            runs, f"{exp.name}: integrated absolute carriage position error (mm s)", exp.description)
+    else:
+        md = variants.compensator_markdown(
+            runs, f"{exp.name}: integrated absolute output error (deg s) and voltage sign changes",
+            exp.description)
+    assert md == (REPO / "results" / f"{name}.md").read_text()
+
+
+def test_every_report_names_controllers_from_the_one_table(monkeypatch):
+    from rich.console import Console
+
+    monkeypatch.setitem(KIND_NAMES, "p", "Prop")
+    monkeypatch.setitem(KIND_NAMES, "bang_bang", "BB")
+    t1 = pd.read_csv(REPO / "results" / "table1_runs.csv")
+    md = tables.table1_markdown(t1, "t")
+    assert "| 1 | BB |" in md and "| 1 | Prop, Kp=50 |" in md and "bang-bang" not in md
+    out = io.StringIO()
+    Console(file=out, width=200).print(tables.rich_table(t1, "t"))
+    assert "Prop 50" in out.getvalue() and "BB" in out.getvalue()
+    tr = pd.read_csv(REPO / "results" / "table1_translational_runs.csv")
+    assert "| 1 | BB |" in variants.translational_markdown(tr, "t")
+    co = pd.read_csv(REPO / "results" / "compensators_runs.csv")
+    assert "| 1 | Prop, Kp=50 |" in variants.compensator_markdown(co, "t")
+    assert describe_controller(SimpleNamespace(kind="p")) == "Prop"
+    monkeypatch.undo()
+    assert describe_controller(SimpleNamespace(kind="pi", ki=0.005)) == "PI, Ki = 0.005 1/s"

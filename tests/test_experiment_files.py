@@ -164,6 +164,30 @@ def test_all_problems_reported_at_once(tmp_path):
     assert all(p.startswith("plant.") for p in validate_plant_dict(d, "plant"))
 
 
+SHAFT_EFFECT = {"type": "shaft_compliance", "stiffness": 50.0, "damping": 1e-4, "pinion_inertia": 3e-7}
+
+
+def test_an_effect_that_cannot_sit_on_the_plant_is_named_alone(tmp_path):
+    """A second shaft cannot sit on the plant; the effects after it are judged without it."""
+    d = sample(effects=[SHAFT_EFFECT, SHAFT_EFFECT, {"type": "coulomb_friction", "location": "load", "torque": 0.1}])
+    with pytest.raises(ConfigError) as info:
+        load_plant(write(tmp_path, "thesis_gear.yaml", d))
+    assert info.value.entries == (("thesis_gear.yaml", "effects[1] (shaft_compliance): the plant already has a shaft"),)
+
+
+def test_effect_entries_are_checked_by_the_plant_files_check(tmp_path):
+    from gearbench.experiment.files import check_effects_on
+    plant = load_plant(SAMPLE)
+    items = [SHAFT_EFFECT, {"type": "bias_torque", "torqe": 1.0}, SHAFT_EFFECT,
+             {"type": "coulomb_friction", "location": "load", "torque": 0.1}]
+    problems: list[str] = []
+    found = check_effects_on(plant, items, ["a", "b", "c", "d"], problems)
+    assert [e.name for e in found] == ["shaft_compliance", "coulomb_friction"]
+    assert problems[0].startswith("b.torqe is not a bias_torque parameter")
+    assert all(p.startswith("b.") for p in problems[:-1]) and problems[-1] == "c: the plant already has a shaft"
+    assert load_plant(sample(effects=[SHAFT_EFFECT, items[3]])).effects == found
+
+
 def test_yaml_syntax_error_names_line(tmp_path):
     path = write(tmp_path, "broken.yaml", "motor:\n  resistance: 2.5\n  inductance: [1\ngear: {\n")
     msg = error_of(load_plant, path)
@@ -291,3 +315,28 @@ def test_inline_plant_problems_carry_plant_prefix(tmp_path):
 def test_experiment_yaml_syntax_error(tmp_path):
     path = write(tmp_path, "bad.yaml", "duration_s: 10\ncontrollers:\n  - {kind: p, kp: 50\n")
     assert error_of(load_experiment, path).startswith("bad.yaml: YAML syntax error at line")
+
+
+# ---------------------------------------------------- shift_deg against the resolved plant
+
+RIGID = {"motor": SAMPLE["motor"], "gear": {"ratio": 100.0, "rigid": True}, "load": SAMPLE["load"]}
+ZERO_CLEARANCE = dict(SAMPLE, gear=dict(SAMPLE["gear"], backlash_deg=0.0))
+
+
+@pytest.mark.parametrize("base", [RIGID, ZERO_CLEARANCE], ids=["rigid", "mesh without clearance"])
+@pytest.mark.parametrize("shift_deg, ok", [(1.0, True), (2.0, True), (2.5, False)])
+def test_shift_deg_is_checked_against_the_clearance_of_a_backlash_effect(tmp_path, base, shift_deg, ok):
+    """The rule: 0 <= shift_deg <= the clearance, here 2 deg from the backlash effect
+    (gear.backlash_deg is 0 or absent)."""
+    write(tmp_path, "plants/p.yaml", dict(base, effects=[{"type": "backlash", "backlash_deg": 2.0}]))
+    text = edit(edit(EXPERIMENT, "plants/thesis_gear.yaml", "plants/p.yaml"), "shift_deg: 1.5",
+                f"shift_deg: {shift_deg}")
+    text = edit(edit(text, "reference: thesis_table1.csv\n", ""), "initial_delta_deg: 0.5", "initial_delta_deg: 0")
+    path = write(tmp_path, "table1.yaml", text)
+    if ok:
+        exp = load_experiment(path)
+        assert exp.shift_deg == shift_deg and exp.plant.gear.backlash_deg == 0.0
+        assert exp.plant.resolved().gear.backlash_deg == 2.0
+    else:
+        msg = error_of(load_experiment, path)
+        assert "shift_deg must lie between 0 and the clearance" in msg and "= 2 deg, got 2.5" in msg

@@ -255,5 +255,8 @@ def test_cli_rejects_a_bad_effect_naming_the_key(tmp_path):
     assert "load_spring.stiffness" in text and "N m/rad" in text
     assert "key=value" in fails("--effect", "coulomb_friction torque")
     assert "not a known effect" in fails("--effect", "stiction torque=1")
+    shaft = "shaft_compliance stiffness=50 damping=1e-4 pinion_inertia=3e-7"
+    text = fails("--effect", shaft, "--effect", shaft)
+    assert "shaft_compliance (#2): the plant already has a shaft" in text and "(#1)" not in text
     assert "--noise" in fails("--noise", "load_angle_deg=-1")
     assert list(tmp_path.iterdir()) == [], "nothing is written when anything fails"

@@ -83,6 +83,19 @@ KINDS = {"open": L.CTRL_OPEN, "bang_bang": L.CTRL_BANGBANG, "p": L.CTRL_P,
          "pi": L.CTRL_PI, "pid": L.CTRL_PID}
 
 
+KIND_NAMES = {"open": "open", "bang_bang": "bang-bang", "p": "P", "pi": "PI", "pid": "PID"}
+"""How tables, reports and figures name each kind (the one place they are written)."""
+
+
+def kind_name(kind: str, kp: float | None = None) -> str:
+    """``KIND_NAMES[kind]`` (an unknown kind as it is), then ``, Kp=50`` when ``kp``
+    is a number (not None or NaN): ``kind_name("p", 50.0)`` is ``"P, Kp=50"``."""
+    name = KIND_NAMES.get(kind, kind)
+    if kp is not None and not (isinstance(kp, float) and math.isnan(kp)):
+        name += f", Kp={kp:g}"
+    return name
+
+
 SETTINGS = {"open": (), "bang_bang": ("band_deg",), "p": ("kp",), "pi": ("kp", "ki"),
             "pid": ("kp", "ki", "kd", "derivative_filter_s")}
 """The settings each kind reads (the others must stay at their defaults)."""

@@ -296,6 +296,32 @@ def _check_effects(raw: Any, where: str, has_leadscrew: bool, problems: list[str
     return tuple(e for e in found if e is not None)
 
 
+def _fit_effects(plant: Plant, effects, paths, problems: list[str]) -> tuple:
+    """The ``effects`` that can sit on ``plant``, each added after its own effects and the
+    ones before it that can: packing the plant says (e.g. no amplifier dead zone on a
+    torque drive).  Each that cannot adds ``"<path>: <why>"`` to ``problems``."""
+    fitted: list[AddedEffect] = []
+    for effect, path in zip(effects, paths):
+        try:
+            pack_plant(plant.with_effects(*fitted, effect))
+        except ValueError as exc:
+            problems.append(f"{path}: {exc}")
+            continue
+        fitted.append(effect)
+    return tuple(fitted)
+
+
+def check_effects_on(plant: Plant, items, paths, problems: list[str]) -> tuple:
+    """``{type: NAME, <parameters>}`` entries added to ``plant``, checked as a plant file's
+    ``effects:`` are: each against the effect registry (its type, options, parameters with
+    their units and bounds), then whether it can sit on ``plant`` after the ones before it.
+    Every problem goes to ``problems``, named by the entry's path in ``paths``; returns the
+    effects that passed (``AddedEffect``s, in order)."""
+    checked = [(effect, path) for item, path in zip(items, paths)
+               if (effect := _check_effect(item, path, plant.leadscrew is not None, problems)) is not None]
+    return _fit_effects(plant, [e for e, _ in checked], [p for _, p in checked], problems)
+
+
 def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None, list[str]]:
     """Check a plant mapping; return the Plant (None if any problem) and the problems."""
     problems: list[str] = []
@@ -354,11 +380,9 @@ def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None,
         shaft=Shaft(**shaft) if shaft else None,
         leadscrew=Leadscrew(**values["leadscrew"]) if values["leadscrew"] else None,
         effects=effects, name=top.get("name", default_name), drive=drive)
-    for i, e in enumerate(effects):  # effects that cannot sit on this plant (a dead zone on a force drive)
-        try:
-            pack_plant(replace(plant, effects=effects[:i + 1]))
-        except ValueError as exc:
-            problems.append(f"{index(join(where, 'effects'), i)} ({e.name}): {exc}")
+    # effects that cannot sit on this plant (a dead zone on a force drive)
+    _fit_effects(replace(plant, effects=()), effects,
+                 [f"{index(join(where, 'effects'), i)} ({e.name})" for i, e in enumerate(effects)], problems)
     if not problems:
         problems += _extreme_problems(plant, where)
     return (None, problems) if problems else (plant, [])
@@ -714,9 +738,10 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
     if plant is not None:
         clearance = plant.gear.backlash_deg
         shift_deg = top.get("shift_deg")
-        if shift_deg is not None and shift_deg > clearance:
-            problems.append(f"shift_deg must lie between 0 and the clearance gear.backlash_deg = "
-                            f"{clearance:g} deg, got {shift_deg!r}")
+        resolved = plant.resolved().gear.backlash_deg  # a backlash effect's clearance counts
+        if shift_deg is not None and shift_deg > resolved:
+            problems.append(f"shift_deg must lie between 0 and the clearance (gear.backlash_deg, or a "
+                            f"backlash effect's) = {resolved:g} deg, got {shift_deg!r}")
         d0 = top.get("initial_delta_deg", 0.0)
         if abs(d0) > clearance / 2.0:
             problems.append(f"initial_delta_deg must lie within +-{clearance / 2.0:g} deg (half of "

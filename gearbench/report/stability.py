@@ -1,7 +1,7 @@
 """Reports of ``gearbench stability``: Markdown and a rich table."""
 from __future__ import annotations
 
-NAMES = {"p": "P", "pi": "PI", "pid": "PID"}
+from ..control.controllers import KIND_NAMES
 
 
 def _range(iv) -> str:
@@ -10,7 +10,7 @@ def _range(iv) -> str:
 
 
 def describe_controller(rep) -> str:
-    text = NAMES[rep.kind]
+    text = KIND_NAMES[rep.kind]
     if rep.kind in ("pi", "pid"):
         text += f", Ki = {rep.ki:g} 1/s"
     if rep.kind == "pid":

@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..control.controllers import KIND_NAMES, kind_name
+
 TABLE1_COLUMNS = ["profile", "controller", "kp", "shift", "iae_deg_s", "thesis_iae_deg_s", "ratio"]
-CONTROLLER_NAMES = {"bang_bang": "bang-bang", "p": "P", "pi": "PI", "pid": "PID"}
 
 
 def records_frame(records) -> pd.DataFrame:
@@ -67,10 +68,7 @@ def table1_markdown(table: pd.DataFrame, title: str, notes: str = "") -> str:
                 continue
             r = row.iloc[0]
             cells += [f"{r.iae_deg_s:.3f}", _fmt(r.thesis_iae_deg_s, ".3f"), _fmt(r.ratio, ".2f")]
-        name = CONTROLLER_NAMES.get(ctrl, ctrl)
-        if kp is not None and not (isinstance(kp, float) and math.isnan(kp)):
-            name += f", Kp={kp:g}"
-        lines.append(f"| {prof} | {name} | " + " | ".join(cells) + " |")
+        lines.append(f"| {prof} | {kind_name(ctrl, kp)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -88,7 +86,7 @@ def rich_table(table: pd.DataFrame, title: str):
                       ("impacts", "right"), ("switches", "right"), ("sat %", "right"), ("status", "left")):
         t.add_column(col, justify=just)
     for r in table.itertuples():
-        name = CONTROLLER_NAMES.get(r.controller, r.controller)
+        name = KIND_NAMES.get(r.controller, r.controller)
         if r.controller != "bang_bang":
             name += f" {r.kp:g}"
         ratio = _fmt(r.ratio, ".2f")

@@ -1,12 +1,10 @@
 """Tables for the translational (leadscrew) variant and the compensator comparison."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pandas as pd
 
-from .tables import CONTROLLER_NAMES
+from ..control.controllers import kind_name
 
 TRANSLATIONAL_COLUMNS = ["profile", "controller", "kp", "shift", "iae_mm_s"]
 COMPENSATOR_COLUMNS = ["profile", "controller", "kp", "compensator", "iae_deg_s", "sign_changes"]
@@ -42,7 +40,7 @@ def translational_markdown(table: pd.DataFrame, title: str, notes: str = "") -> 
             cells.append(f"{r.iae_mm_s:.4f}")
             if counts:
                 cells += [str(int(r.switchings)), str(int(r.impacts))]
-        lines.append(f"| {prof} | {_name(ctrl, kp)} | " + " | ".join(cells) + " |")
+        lines.append(f"| {prof} | {kind_name(ctrl, kp)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -70,7 +68,7 @@ def compensator_markdown(table: pd.DataFrame, title: str, notes: str = "") -> st
             row = grp[grp["compensator"] == c]
             cells += (["", ""] if row.empty else
                       [f"{row.iloc[0].iae_deg_s:.4f}", str(int(row.iloc[0].sign_changes))])
-        lines.append(f"| {prof} | {_name(ctrl, kp)} | " + " | ".join(cells) + " |")
+        lines.append(f"| {prof} | {kind_name(ctrl, kp)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -97,7 +95,7 @@ def compensator_figure(table: pd.DataFrame, title: str = ""):
     ax2.set_yscale("log")
     ax2.set_ylabel("voltage sign changes")
     ax2.set_xticks(x + 0.4 - w / 2)
-    ax2.set_xticklabels([f"p{p} {_name(c, k)}" for p, c, k in cells], rotation=30, ha="right", fontsize=8)
+    ax2.set_xticklabels([f"p{p} {kind_name(c, k)}" for p, c, k in cells], rotation=30, ha="right", fontsize=8)
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
@@ -154,14 +152,7 @@ def compensator_trace_figure(records, plant, title: str = ""):
         ax.set_xlabel("time (s)")
     prof, kind, kp = cell
     dt = rows[0].result.time_s[1] - rows[0].result.time_s[0]
-    fig.suptitle(title or f"{prof}, {_name(kind, kp)}: the cell with the most voltage sign changes "
+    fig.suptitle(title or f"{prof}, {kind_name(kind, kp)}: the cell with the most voltage sign changes "
                           f"(traces sampled every {dt * 1e3:.3g} ms)")
     fig.tight_layout()
     return fig, cell
-
-
-def _name(ctrl, kp) -> str:
-    name = CONTROLLER_NAMES.get(ctrl, ctrl)
-    if kp is not None and not (isinstance(kp, float) and math.isnan(kp)):
-        name += f", Kp={kp:g}"
-    return name
