@@ -322,14 +322,36 @@ def check_effects_on(plant: Plant, items, paths, problems: list[str]) -> tuple:
     return _fit_effects(plant, [e for e, _ in checked], [p for _, p in checked], problems)
 
 
-def _build_plant(raw: Any, where: str, default_name: str) -> tuple[Plant | None, list[str]]:
-    """Check a plant mapping; return the Plant (None if any problem) and the problems."""
+def _load_effect_modules(raw: Any, where: str, base_dir: Path | None, problems: list[str]) -> None:
+    """Load ``effect_modules:``, a list of Python files (relative to the plant's file)
+    whose effects the plant may then name (``plant/effects/user.py``)."""
+    if raw is None:
+        return
+    if not isinstance(raw, list) or not all(isinstance(p, str) and p.strip() for p in raw):
+        problems.append(f"{where} must be a list of Python file paths (relative to this file), "
+                        f"got {show(raw)}")
+        return
+    from ..plant.effects.user import load
+    for i, ref in enumerate(raw):
+        try:
+            load(_resolve(base_dir or Path.cwd(), ref))
+        except ValueError as exc:
+            problems.append(f"{index(where, i)}: {exc}")
+
+
+def _build_plant(raw: Any, where: str, default_name: str,
+                 base_dir: Path | None = None) -> tuple[Plant | None, list[str]]:
+    """Check a plant mapping; return the Plant (None if any problem) and the problems.
+
+    ``base_dir``: the folder relative ``effect_modules`` paths are taken from."""
     problems: list[str] = []
     sections = {k: "mapping" for k in PLANT_SECTIONS}
     sections["effects"] = "list"
+    sections["effect_modules"] = "list of Python files"
     top = check_mapping(raw, where, PLANT_TOP, problems, context="a plant key", extra=sections)
     if top is None:
         return None, problems
+    _load_effect_modules(raw.get("effect_modules"), join(where, "effect_modules"), base_dir, problems)
     drive = top.get("drive", "voltage")
     rigid = isinstance(raw.get("gear"), Mapping) and raw["gear"].get("rigid") is True
     values: dict[str, dict | None] = {}
@@ -428,7 +450,8 @@ def validate_plant_dict(d: Any, where: str = "") -> list[str]:
     return _build_plant(d, where, "plant")[1]
 
 
-def plant_from_dict(d: Any, *, name: str = "plant", label: str = INLINE, where: str = "") -> Plant:
+def plant_from_dict(d: Any, *, name: str = "plant", label: str = INLINE, where: str = "",
+                    base_dir: str | Path | None = None) -> Plant:
     """Build a :class:`Plant` from a parsed mapping, or raise :class:`ConfigError`.
 
     Parameters
@@ -441,8 +464,11 @@ def plant_from_dict(d: Any, *, name: str = "plant", label: str = INLINE, where: 
         File label for messages.
     where : str
         Key path of ``d`` inside its file.
+    base_dir : str or Path, optional
+        Folder that relative ``effect_modules`` paths start from (default: the
+        working directory).
     """
-    plant, problems = _build_plant(d, where, name)
+    plant, problems = _build_plant(d, where, name, Path(base_dir) if base_dir is not None else None)
     if problems:
         raise ConfigError(label, problems)
     return plant
@@ -493,7 +519,7 @@ def load_plant(source: str | Path | Mapping, *, base_dir: str | Path | None = No
     path = Path(source)
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
-    return plant_from_dict(read_yaml(path), name=path.stem, label=path.name)
+    return plant_from_dict(read_yaml(path), name=path.stem, label=path.name, base_dir=path.parent)
 
 
 # ----------------------------------------------------------------- experiments
@@ -693,11 +719,11 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
         else:
             plant_path = str(path.resolve())
             try:
-                plant = plant_from_dict(read_yaml(path, ref), name=path.stem, label=ref)
+                plant = plant_from_dict(read_yaml(path, ref), name=path.stem, label=ref, base_dir=path.parent)
             except ConfigError as exc:
                 other.extend(exc.entries)
     elif isinstance(ref, Mapping):
-        plant, plant_problems = _build_plant(ref, "plant", name)
+        plant, plant_problems = _build_plant(ref, "plant", name, base_dir)
         problems.extend(plant_problems)
     else:
         got = "nothing" if "plant" not in raw else show(ref)

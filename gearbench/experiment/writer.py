@@ -53,6 +53,9 @@ def plant_to_dict(plant: Plant) -> dict:
     if plant.leadscrew is not None:
         ls = plant.leadscrew
         d["leadscrew"] = {"lead_mm": ls.lead_mm, "mass": ls.mass, "damping": ls.damping}
+    modules = sorted({e.source for e in plant.effects if e.source})
+    if modules:  # effects from files outside the package: the file names them (absolute paths)
+        d["effect_modules"] = modules
     d["effects"] = [e.to_dict() for e in plant.effects]
     return d
 
@@ -141,8 +144,8 @@ def _merge(target, old: dict, new: dict, notes: dict, before_key=None) -> None:
         if key not in new and key in target:
             del target[key]
     for key, value in new.items():
-        if key == "effects" or key in ("name", "description"):
-            continue
+        if key in ("effects", "effect_modules", "name", "description"):
+            continue  # effect_modules: the file's own (relative) paths stay
         if isinstance(value, dict):
             if key not in target or not isinstance(target[key], dict):
                 section = CommentedMap()
