@@ -262,3 +262,29 @@ compensator: [thesis_shift, damped_feedforward]
     assert list(table.compensator) == ["thesis_shift", "damped_feedforward"]
     assert (out / "mini_comp.png").stat().st_size > 0 and (out / "mini_comp_traces.png").stat().st_size > 0
     assert "damped_feedforward" in (out / "mini_comp.md").read_text()
+
+
+def test_shift_reads_the_resolved_clearance():
+    """A rigid plant whose clearance comes from the ``backlash`` effect: the default
+    shift is half that clearance (it was 0, read from the raw gear), and a shift_deg
+    up to the clearance is accepted by simulate (it was rejected as over 0 deg)."""
+    from dataclasses import replace
+
+    from gearbench import layout as L
+    from gearbench.experiment.files import load_plant
+    from gearbench.plant.components import Gear
+    from gearbench.plant.effects import AddedEffect
+    from gearbench.simulate import Segments, pack
+
+    bench = load_plant(REPO / "experiments" / "plants" / "bench_rig.yaml")
+    rigid = replace(bench, gear=Gear(bench.gear.ratio, 0.0, 0.0, 0.0, rigid=True))
+    plant = rigid.with_effects(AddedEffect("backlash", {"backlash_deg": 2.0}))
+    p = pack(plant, Controller("p", kp=1.0, shift=True))
+    assert p[L.P_SHIFT] == pytest.approx(math.radians(1.0), rel=1e-12)
+    assert pack(rigid, Controller("p", kp=1.0, shift=True))[L.P_SHIFT] == 0.0
+    run = simulate(plant, Controller("p", kp=1.0, shift=True, shift_deg=1.5),
+                   Segments(np.array([0.0]), np.array([0.05]), np.array([0.0])), 0.05)
+    assert run.ok
+    with pytest.raises(Exception, match="shift_deg"):
+        simulate(plant, Controller("p", kp=1.0, shift=True, shift_deg=2.5),
+                 Segments(np.array([0.0]), np.array([0.05]), np.array([0.0])), 0.05)

@@ -9,6 +9,7 @@ import pytest
 from gearbench import layout as L
 from gearbench.control.controllers import Controller
 from gearbench.plant.components import Gear, Leadscrew, Load, Motor, Plant, Shaft
+from gearbench.plant.effects import AddedEffect
 from gearbench.plant.linear import (engaged_matrix, engaged_state_space, modes, plant_info,
                                     state_names)
 from gearbench.simulate import Segments, pack, simulate
@@ -19,6 +20,11 @@ SAMPLE = Plant(MOTOR, Gear(100.0, 3.0, 2.4e7, 3.4), Load(5.0e-5, 15.0), name="sa
 LIGHT = Plant(MOTOR, Gear(100.0, 3.0, 2.4e7, 0.01), Load(5.0e-5, 1.0e-4), name="light")
 SHAFT = replace(LIGHT, motor=replace(MOTOR, inertia=7e-7), shaft=Shaft(50.0, 1e-5, 3e-7))
 SCREW = replace(SAMPLE, leadscrew=Leadscrew(lead_mm=1.27, mass=0.5, damping=2.0))
+# effects linear in the state (Effect.linear), on a plant with a shaft so theta_l involves phi
+LINEAR_EFFECTS = SHAFT.with_effects(
+    AddedEffect("load_spring", {"stiffness": 3.0, "rest_angle_deg": 20.0}),
+    AddedEffect("viscous_friction", {"location": "motor", "coefficient": 2e-5}),
+    AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.4}))
 
 COLUMNS = {"i": L.X_I, "theta_m": L.X_THM, "w_m": L.X_WM, "phi": L.X_PHI, "w_p": L.X_WP,
            "delta": L.X_DELTA, "w_l": L.X_WL}
@@ -31,7 +37,8 @@ def mesh_closed_form(plant):
     return math.sqrt(k * (1.0 / plant.output_inertia + 1.0 / (jm * n ** 2))) / (2 * math.pi)
 
 
-@pytest.mark.parametrize("plant", [SAMPLE, SHAFT, SCREW], ids=["rigid", "shaft", "leadscrew"])
+@pytest.mark.parametrize("plant", [SAMPLE, SHAFT, SCREW, LINEAR_EFFECTS],
+                         ids=["rigid", "shaft", "leadscrew", "linear-effects"])
 def test_matrix_matches_compiled_rhs(plant):
     """Engaged on the positive flank, the compiled rhs is affine: its differences are A."""
     from gearbench.plant.effects.codegen import compiled_model

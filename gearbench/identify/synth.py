@@ -304,8 +304,9 @@ def default_signals(plant: Plant) -> tuple[str, ...]:
 
 
 def quantized_signals(plant: Plant) -> set[str]:
-    """Signals an ``encoder_quantization`` effect of ``plant`` rounds to counts."""
-    return {e.values["signal"] for e in plant.effects if e.name == "encoder_quantization"}
+    """Signals a sensor effect of ``plant`` rounds to a grid (``Effect.rounds``:
+    ``encoder_quantization``'s counts)."""
+    return {e.values["signal"] for e in plant.effects if e.effect.rounds}
 
 
 def resolved_noise(plant: Plant, signals: Sequence[str],

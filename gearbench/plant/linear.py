@@ -16,7 +16,9 @@ without electrics the drive torque on the rotor (N m).  Equations (SI)::
     ddelta/dt   = w_p/N - w_l          (w_p = w_m without a shaft)
     Jl dw_l/dt  = T - bl w_l,           T = k delta + d ddelta
 
-States, in this order: ``[i, theta_m, w_m, (phi, w_p), delta, w_l]`` (``i``
+plus, for each effect linear in the state (``Effect.linear``: a load spring,
+symmetric viscous friction), ``- k_e theta - c_e w`` on its shaft, with
+``theta_l = (theta_m - phi)/N - delta``.  States, in this order: ``[i, theta_m, w_m, (phi, w_p), delta, w_l]`` (``i``
 dropped without electrics).  ``Jl`` and ``bl`` are ``Plant.output_inertia`` and
 ``Plant.output_damping`` (they include a leadscrew's reflected carriage), and
 ``Jm`` is ``Plant.motor.inertia`` (the rotor alone when there is a shaft).
@@ -95,6 +97,17 @@ def engaged_state_space(plant: Plant, *, electrics: bool = True) -> StateSpace:
     add("delta", {wp: 1.0 / n, "w_l": -1.0}, 1.0)
     add("w_l", mesh, 1.0 / plant.output_inertia)
     add("w_l", {"w_l": -plant.output_damping}, 1.0 / plant.output_inertia)
+    # effects linear in the state (Effect.linear): -k theta - c w on their shaft;
+    # theta_l = (theta_m - phi)/N - delta
+    angle = {"motor": {"theta_m": 1.0},
+             "load": {"theta_m": 1.0 / n, "delta": -1.0, **({"phi": -1.0 / n} if plant.shaft else {})}}
+    for e in plant.effects:
+        lin = e.effect.linear(e.values, plant)
+        if lin is not None:
+            shaft, k, c = lin
+            row, j = ("w_m", m.inertia) if shaft == "motor" else ("w_l", plant.output_inertia)
+            add(row, {s: -k * v for s, v in angle[shaft].items()}, 1.0 / j)
+            add(row, {row: -c}, 1.0 / j)
     return StateSpace(a, b, names)
 
 

@@ -151,13 +151,8 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
         if last:
             hh = tb - t
         if tol.method != METHOD_DOPRI:
-            region = m.piece(m.args, x, p, work.modes, ref_t)
-            if not jac_ok or region != jac_region:
-                stats[S_FEVALS] += jacobian(m, t, x, f, p, work.modes, ref_t, s, tol.scale, region, lin,
-                                            work.ws[0], work.ws[1], work.ws[2])
-                jac_ok = True
-                jac_region = region
-            m.jacobian_rows(m.args, x, p, ref_t, s, lin[2], lin[1].shape[0], lin[0], lin[3])
+            jac_ok, jac_region = _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats,
+                                                   lin, work)
         err, ne = _step(m, tol.method, t, x, f, hh, p, work.modes, ref_t, s, tol, work.ws, lin, vec)
         stats[S_FEVALS] += ne
         if not (err <= 1.0):
@@ -194,6 +189,21 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             jac_ok = False
         h = h_next
     return t, h, io
+
+
+@nb.njit(cache=True, _nrt=False)
+def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, lin, work):
+    """Take the Jacobian again unless it still holds (``jac_ok``: same mode and
+    segment, piecewise-linear, on the same piece); then the rows the model
+    knows exactly.  Returns the new ``(jac_ok, jac_region)``."""
+    region = m.piece(m.args, x, p, work.modes, ref_t)
+    if not jac_ok or region != jac_region:
+        stats[S_FEVALS] += jacobian(m, t, x, f, p, work.modes, ref_t, s, tol.scale, region, lin,
+                                    work.ws[0], work.ws[1], work.ws[2])
+        jac_ok = True
+        jac_region = region
+    m.jacobian_rows(m.args, x, p, ref_t, s, lin[2], lin[1].shape[0], lin[0], lin[3])
+    return jac_ok, jac_region
 
 
 @nb.njit(cache=True, _nrt=False)

@@ -341,17 +341,22 @@ def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fne
     for i in range(n):
         ynew[i] = ytmp[i] + k6[i]
     m.rhs(m.args, ynew, p, modes, ref1, fnew)
-    # RODAS's own dense output, y0 (1 - th) + th (y1 + (1 - th) (c3 + th c4)), written
-    # as a cubic Hermite: its end slopes are (y1 - y0 + c3)/h and (y1 - y0 - c3 - c4)/h.
-    # Unlike the Hermite cubic through f0 and f1 it stays accurate for the stiff
-    # components across steps much longer than their time constants.
+    _rodas_dense(n, y, ynew, k1, k2, k3, k4, k5, hinv, s0, s1)
+    return error_norm(k6, y, ynew, rtol, atol), 6
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def _rodas_dense(n, y, ynew, k1, k2, k3, k4, k5, hinv, s0, s1):
+    """RODAS's own dense output, y0 (1 - th) + th (y1 + (1 - th) (c3 + th c4)), written
+    as a cubic Hermite: its end slopes are (y1 - y0 + c3)/h and (y1 - y0 - c3 - c4)/h.
+    Unlike the Hermite cubic through f0 and f1 it stays accurate for the stiff
+    components across steps much longer than their time constants."""
     for i in range(n):
         c3 = R_D21 * k1[i] + R_D22 * k2[i] + R_D23 * k3[i] + R_D24 * k4[i] + R_D25 * k5[i]
         c4 = R_D31 * k1[i] + R_D32 * k2[i] + R_D33 * k3[i] + R_D34 * k4[i] + R_D35 * k5[i]
         dy = ynew[i] - y[i]
         s0[i] = (dy + c3) * hinv
         s1[i] = (dy - c3 - c4) * hinv
-    return error_norm(k6, y, ynew, rtol, atol), 6
 
 
 # Dormand-Prince 5(4) tableau

@@ -31,11 +31,13 @@ and acts in one of three ways:
     ``theta_l`` (rad), and its slope.
 
   It also declares ``piecewise_linear(values)`` (the term is affine in the
-  state, so the solver may reuse a Jacobian; the default says no) and
-  ``steady_drag(values, plant)`` (what it resists steady forward motion with,
-  for ``info`` and the top speed; None for none).  The parameter layout,
-  packing, the Jacobian reuse and the steady drag are derived from these
-  declarations (``codegen.py``, ``pack.py``, ``linear.py``).
+  state, so the solver may reuse a Jacobian; the default says no),
+  ``linear(values, plant)`` (its stiffness and damping where it is linear,
+  for the linearised plant) and ``steady_drag(values, plant)`` (what it
+  resists steady forward motion with, for ``info`` and the top speed; None
+  for none).  The parameter layout, packing, the Jacobian reuse, the
+  linearisation and the steady drag are derived from these declarations
+  (``codegen.py``, ``pack.py``, ``linear.py``).
 * **structural**: ``apply(values, plant)`` returns a changed plant;
 * **sensor**: ``measure(values, name, y, time_s, plant)`` distorts a measured signal.
 
@@ -87,6 +89,7 @@ class Effect:
     places: ClassVar[tuple[str, ...]] = ()
     slots: ClassVar[tuple[str, ...]] = ()  # what the term reads at p[o], p[o + 1], ... (SI)
     source: ClassVar[str | None] = None  # the file of an effect from outside the package
+    rounds: ClassVar[bool] = False  # a sensor effect that rounds its signal to a grid (no noise below it)
 
     def fit_params(self, values: dict) -> tuple[Param, ...]:
         """The parameters a fit adjusts (the given optional ones too)."""
@@ -103,6 +106,13 @@ class Effect:
         constant, a symmetric viscous term): the solver may then reuse a
         Jacobian while the modes stay."""
         return False
+
+    def linear(self, values: dict, plant) -> tuple[str, float, float] | None:
+        """``(shaft, k, c)``: where its term is linear, this instance adds
+        ``-k theta - c w`` to the torque on ``shaft`` (``"motor"`` or ``"load"``;
+        ``theta`` its angle, rad, ``w`` its speed, rad/s; k in N m/rad, c in
+        N m s/rad), which the linearised plant takes in; None otherwise."""
+        return None
 
     def steady_drag(self, values: dict, plant) -> tuple[str, float, float] | None:
         """``(shaft, b, t0)``: in steady forward motion this instance resists

@@ -31,6 +31,7 @@ class EncoderQuantization(Effect):
     name = "encoder_quantization"
     signature = "steps of one count"
     acts_on = "measured signal"
+    rounds = True
     options = {"signal": SIGNALS}
     params = (Param("counts_per_rev", "counts/rev", 1.0, 1e9, 1000.0,
                     "counts per revolution of the signal's shaft", integer=True),)

@@ -44,3 +44,6 @@ class LoadSpring(Effect):
 
     def piecewise_linear(self, values):
         return True
+
+    def linear(self, values, plant):
+        return "load", float(values["stiffness"]), 0.0

@@ -54,6 +54,13 @@ class ViscousFriction(Effect):
         neg = key(values, "coefficient_negative")
         return neg not in values or float(values[neg]) == float(values[key(values, "coefficient")])
 
+    def linear(self, values, plant):
+        """Linear when symmetric."""
+        if not self.piecewise_linear(values):
+            return None
+        loc, c = at_shaft(values, plant, "coefficient", 2)
+        return loc, 0.0, c
+
     def steady_drag(self, values, plant):
         loc, c = at_shaft(values, plant, "coefficient", 2)
         return loc, c, 0.0
