@@ -328,8 +328,12 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
         raise ValueError(f"unknown solver method {options.method!r}; choose one of {sorted(METHODS)}")
     scales = np.asarray(scales, dtype=float)
     model = compiled_model()
+    p = np.asarray(p, dtype=float)
+    if len(p) > model.SIZE:
+        raise ValueError(f"p has {len(p)} slots but the compiled model with the effects registered in this "
+                         f"process has {model.SIZE}: pack the plant in the process that simulates it")
     # a vector packed before an effect module was loaded lacks only that module's blocks (absent: 0)
-    p = np.concatenate((np.asarray(p, dtype=float), np.zeros(max(model.SIZE - len(p), 0))))
+    p = np.concatenate((p, np.zeros(model.SIZE - len(p))))
     p[L.P_SPEED_EPS] = SHIFT_SPEED_REL * scales[L.X_WM]
     p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
     p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]

@@ -17,9 +17,10 @@ From the registered effects' declarations (``base.py``: ``term``, ``places``,
   ``derivative``, compiled and cached by numba.
 
 The generated module is a file under numba's cache folder, named by a hash
-of the effects it holds (names and their modules' sources), so numba can
-cache its entry points on disk, and a process that needs the same effects
-(a worker) imports the same file.
+of gearbench's physics sources and the effects it holds (their modules'
+sources), so numba can cache its entry points on disk, an edit anywhere
+makes a new one, and a process that needs the same effects (a worker)
+imports the same file.
 """
 from __future__ import annotations
 
@@ -200,15 +201,18 @@ def _folder() -> Path:
 def compiled_model():
     """The generated module for the effects registered now (written and
     imported once per set of effects)."""
-    state = tuple((e.name, e.source) for e in compiled_effects())
+    state = tuple((e.name, e.source, id(type(e))) for e in compiled_effects())
     if state not in _MODELS:
         _MODELS[state] = _generate()
     return _MODELS[state]
 
 
 def _generate():
+    from ...physics_hash import physics_digest
     text = source()
-    key = hashlib.sha256((VERSION + text + "".join(
+    # named by everything its compiled code depends on: gearbench's physics (numba checks
+    # only this file's date), the generated text and the outside effects' sources
+    key = hashlib.sha256((VERSION + physics_digest() + text + "".join(
         Path(e.source).read_text() for e in compiled_effects() if e.source)).encode()).hexdigest()[:16]
     name = f"gearbench_model_{key}"
     if name in sys.modules:
