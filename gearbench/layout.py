@@ -1,9 +1,12 @@
-"""Index layout shared by the packer (Python) and the compiled core (numba).
+"""Index layout of the geartrain model, shared by the packer (Python) and the
+compiled model (numba).
 
-The compiled core sees numbers, not objects: a plant, its controller and its
-effects are packed once into one float64 parameter vector ``p`` whose slots are
-named here.  Every quantity in ``p`` is SI (angles in rad, gains in V/rad, ...).
-Numba reads these module-level integers as compile-time constants.
+The compiled model sees numbers, not objects: a plant and its controller are
+packed once into one float64 parameter vector ``p`` whose slots are named
+here; the effects' blocks follow ``P_SIZE`` (laid out from their declarations
+by ``plant/effects/codegen.py``).  Every quantity in ``p`` is SI (angles in
+rad, gains in V/rad, ...).  Numba reads these module-level integers as
+compile-time constants.
 """
 
 # ---- parameter vector p ---------------------------------------------------
@@ -43,7 +46,7 @@ P_FRIC_EPS_M = 32  # friction regularisation speed at the motor, rad/s (the solv
 P_FRIC_EPS_L = 33  # friction regularisation speed at the load, rad/s
 P_DELAY = 52       # sampled controller: 1.0 holds the previous sample's command (one sample of delay)
 P_FF = 53          # velocity feedforward, V per rad/s of set-point speed at the output (0 = none)
-P_REF_SLOPE = 54   # the current segment's set-point slope, rad/s (written by the integration loop)
+P_REF_SLOPE = 54   # the current segment's set-point slope, rad/s (written by model.start_segment)
 P_KRATE = 55       # rate damping of damped_feedforward, V per rad/s of the error rate dr/dt - w_m/N (0 = none)
 P_PWL = 56         # 1.0 when every effect keeps the right-hand side piecewise-linear (packer)
 P_SIZE = 64        # the plant's and controller's slots; the effects' blocks follow

@@ -9,7 +9,7 @@ The right-hand side is smooth inside a mode; it changes character when
 * the bang-bang controller switches (``|e|`` crosses ``band/2``),
 * the set-point shift flips (the motor speed crosses zero; thesis compensator
   only: the set-point-direction compensator switches at the profile's corners,
-  which the integration loop handles between segments),
+  in the model's update at each segment's start, ``model.start_segment``),
 * a continuous law (P, PI, PID) reaches or leaves the amplifier's limit: a
   kink, not a jump, but the Jacobian changes there, and a step straddling it
   with the Jacobian of the other side is a Rosenbrock step with a wrong
@@ -23,10 +23,11 @@ torque's sign.
 Each is a guard that fires when it goes from < 0 to >= 0 (or from exactly 0
 where a step starts, which means it was reached already); the generic solver
 (``solver/events.py``) locates the root on the step's interpolant, steps
-exactly to it, then calls ``apply_event``.  The contact sees the mesh's
-relative angle through the effects' offset (``rhs.mesh_seen``).  Guards are re-armed from the new mode after every restart
-(a guard of the new mode starts at or below zero), which is what stops the
-teeth passing through each other when a root lands just short of a crossing.
+exactly to it, then calls ``apply_event``.  Guards are re-armed from the new
+mode after every restart (a guard of the new mode starts at or below zero),
+which is what stops the teeth passing through each other when a root lands
+just short of a crossing.  The contact sees the mesh's relative angle
+through the effects' offset (``rhs.mesh_seen``).
 """
 import numba as nb
 
