@@ -52,7 +52,7 @@ REACH_FLOOR = 0.1
 tangentially would be approached in ever-shorter steps."""
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def guards(fx, x, p, modes, ref, g):
     """Fill ``g`` with the guard values of the current modes."""
     for j in range(N_GUARDS):
@@ -105,7 +105,7 @@ def continuous_law(p):
     return kind == CTRL_P or kind == CTRL_PI or kind == CTRL_PID
 
 
-@nb.njit(cache=True, inline="always", _nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def saturation_guard(fx, x, p, modes, ref):
     """Guard ``G_SAT`` of a continuous law, V: ``|u| - Vmax`` inside the
     limits, ``Vmax - side u`` on one (``u`` the demanded input)."""
@@ -114,7 +114,7 @@ def saturation_guard(fx, x, p, modes, ref):
     return abs(u) - p[P_VMAX] if side == 0 else p[P_VMAX] - side * u
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def saturation_reach(fx, x, f, p, modes, ref, slope, h, xe):
     """The step to take instead of ``h`` (s) so that a continuous law does
     not cross the amplifier's limit far inside it.
@@ -140,7 +140,7 @@ def saturation_reach(fx, x, f, p, modes, ref, slope, h, xe):
     return min(h, max(h * g0 / (g0 - g1) * REACH_MARGIN, REACH_FLOOR * h))
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def classify_controller(fx, x, p, modes, ref):
     """Set the controller's modes from the state: the bang-bang output, or a
     continuous law's side of the amplifier's limit (used where the error jumps,
@@ -159,7 +159,7 @@ def classify_controller(fx, x, p, modes, ref):
         modes[M_BB] = 0
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def classify_damping(fx, x, p, modes):
     """Set ElastoBacklash's damping piece (``M_DAMP``) from the state; 0 out
     of contact and for the other laws."""
@@ -171,7 +171,7 @@ def classify_damping(fx, x, p, modes):
     modes[M_DAMP] = 1 if limited else 0
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def classify(fx, x, p, modes, ref):
     """Set every mode from the state alone (at the start of a run)."""
     delta, dd = mesh_seen(fx, x, p)
@@ -192,7 +192,7 @@ def classify(fx, x, p, modes, ref):
     classify_controller(fx, x, p, modes, ref)
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def apply_event(fx, which, x, p, modes, ref, f, atol, stats):
     """Switch the modes for the guard ``which`` that just fired; count a
     contact onset the solver resolves as an impact (``impact``)."""
@@ -200,7 +200,7 @@ def apply_event(fx, which, x, p, modes, ref, f, atol, stats):
         stats[S_IMPACTS - N_SOLVER_STATS] += impact(fx, x, p, modes, atol)
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def impact(fx, x, p, modes, atol):
     """1 if the contact that just began closed at an approach speed the error
     control resolves (above the load speed's absolute tolerance), else 0.
@@ -211,7 +211,7 @@ def impact(fx, x, p, modes, atol):
     return 1 if modes[M_CONTACT] * mesh_seen(fx, x, p)[1] > atol[X_WL] else 0
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def switch_mode(fx, which, x, p, modes, ref, f):
     """Switch the modes for the guard ``which``; 1 for a contact onset, else 0.
     ``f``: scratch."""

@@ -55,7 +55,7 @@ def mesh_rate(x, p):
     return pinion_speed(x, p) / p[P_N] - x[X_WL]
 
 
-@nb.njit(cache=True, inline="always", _nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def mesh_seen(fx, x, p):
     """The mesh's relative angle and its rate as the contact sees them, rad and
     rad/s: ``delta + e(theta_l)`` and ``d delta/dt + e'(theta_l) w_l``, with
@@ -64,7 +64,7 @@ def mesh_seen(fx, x, p):
     return x[X_DELTA] + e, mesh_rate(x, p) + de * x[X_WL]
 
 
-@nb.njit(cache=True, inline="always", _nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def mesh_torque(fx, x, p, modes):
     """Contact torque on the load in the current contact mode, N m."""
     m = modes[M_CONTACT]
@@ -74,7 +74,7 @@ def mesh_torque(fx, x, p, modes):
     return engaged_torque(delta, rate, p[P_H], p[P_KMESH], p[P_DMESH], p[P_LAW], m, modes[M_DAMP] > 0)
 
 
-@nb.njit(cache=True, inline="always", _nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def applied_input(fx, x, p, modes, ref):
     """The input as applied: motor voltage (V, after any dead zone and the
     saturation) or drive torque / force (N m or N, saturated at the drive's limit).
@@ -87,7 +87,7 @@ def applied_input(fx, x, p, modes, ref):
     return saturate(u, p[P_VMAX])
 
 
-@nb.njit(cache=True, inline="always", _nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def demanded_input(fx, x, p, modes, ref):
     """``applied_input`` before the saturation: the command, through any
     amplifier dead zone when it is a voltage."""
@@ -98,7 +98,7 @@ def demanded_input(fx, x, p, modes, ref):
     return u
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def rhs(fx, x, p, modes, ref, out):
     """Write dx/dt into ``out`` for state ``x`` and set point (or input) ``ref``."""
     n = p[P_N]
@@ -159,7 +159,7 @@ def rhs(fx, x, p, modes, ref, out):
     out[X_ISE] = err * err
 
 
-@nb.njit(cache=True)
+@nb.njit
 def feedback_states(fx, p):
     """The states whose value ``rhs`` reads for this plant and controller, first,
     then the rest; returns ``(order, count)``.
@@ -180,7 +180,7 @@ def feedback_states(fx, p):
     return np.concatenate((np.flatnonzero(used), np.flatnonzero(~used))), int(used.sum())
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def piecewise_linear(fx, p):
     """True when ``rhs`` is affine in the state inside each mode and each
     ``linear_region`` (every contact law: ElastoBacklash's kink is a mode), and
@@ -191,7 +191,7 @@ def piecewise_linear(fx, p):
     return p[P_PWL] > 0.0
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def linear_region(fx, x, p, modes, ref):
     """Which side of the amplifier's limits the command is on (-1, 0, +1): the
     only kink of a ``piecewise_linear`` right-hand side inside a mode, apart
@@ -204,7 +204,7 @@ def linear_region(fx, x, p, modes, ref):
     return 1 if u >= vmax else (-1 if u <= -vmax else 0)
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def quadrature_rows(fx, x, p, ref, slope, order, na, jac, tdot):
     """Write the error quadratures' rows of the Jacobian exactly: with
     ``e = r - theta_l``, ``theta_l = (theta_m - phi)/N - delta``,

@@ -16,7 +16,7 @@ import numba as nb
 from .steppers import hermite
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def locate(m, j, g0j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi0, lo0=0.0):
     """Root of guard ``j`` on the step's interpolant in ``(lo0, hi0]`` (Illinois),
     where the guard is ``g0j`` < 0 at ``lo0`` and >= 0 at ``hi0``; returns theta."""
@@ -90,7 +90,7 @@ def extrema(hh, x, f, xn, fn, idx, target, out, n):
     return n
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt):
     """Guard ``j`` was refused where the step starts (at zero, turning back)
     but is >= 0 at its end: it may still cross later in the step.  Find where
@@ -108,7 +108,7 @@ def _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt)
     return -1.0
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1, xi, gt):
     """The earliest guard that fires between the step's ends: ``(which, theta)``
     (``which`` = -1 when none).  Fills ``g0``/``g1`` with the guards at its ends.
@@ -137,7 +137,7 @@ def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1,
     return which, theta
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def hidden_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, which, theta,
                     g0, g1, g2, xi, gt, thq, widx, wtarget):
     """Guards that cross and cross back inside the step: tested at the interior

@@ -51,7 +51,7 @@ Work = namedtuple("Work", "modes before ws g thq widx wtarget mem seg_u")
 watched components, the model's memory and the input held on each segment."""
 
 
-@nb.njit(cache=True)
+@nb.njit
 def integrate(m, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hmax, method, max_steps):
     """Integrate model ``m`` from ``x0`` at t = 0 to ``t_end`` (s).
 
@@ -76,7 +76,7 @@ def integrate(m, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hm
     return outputs, stats, x, work.seg_u
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _run(m, p, tab, x, t_out, tol, outputs, stats, mstats, lin, vec, work):
     """The loop of ``integrate``, on arrays it allocated: compiled without
     numba's reference-counting runtime, whose atomic increments on every array
@@ -102,7 +102,7 @@ def _run(m, p, tab, x, t_out, tol, outputs, stats, mstats, lin, vec, work):
     m.finish(m.args, x, mstats)
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _step(m, method, t, x, f, h, p, modes, ref_t, s, tol, ws, lin, vec):
     """One step of the chosen method (``METHOD_*``): (error norm, rhs evaluations)."""
     if method == METHOD_RODAS4:
@@ -123,7 +123,7 @@ def _step_factor(err, method):
     return 0.9 * err ** (-1.0 / 3.0 if method == METHOD_ROSENBROCK else -0.2)
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats, lin, vec, work):
     """Integrate segment ``k`` over ``[ta, tb]``; returns ``(t, h, io)``: where
     it stopped, the next step to try and the next output row."""
@@ -191,7 +191,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
     return t, h, io
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, lin, work):
     """Take the Jacobian again unless it still holds (``jac_ok``: same mode and
     segment, piecewise-linear, on the same piece); then the rows the model
@@ -206,7 +206,7 @@ def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, l
     return jac_ok, jac_region
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip, tol, stats, lin, vec, work):
     """Look for an event inside the accepted step and land on it.
 
@@ -241,7 +241,7 @@ def _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip, tol, stats, lin
     return which, hs, last and theta >= 1.0, max(h, 1e-12 * max(1.0, abs(t))), False
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work):
     """Write the output rows on ``(t, t1]`` from the step's interpolant; returns the next row."""
     while io < t_out.size and t_out[io] <= t1:
@@ -251,7 +251,7 @@ def _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work):
     return io
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _advance(m, p, x, f, hh, ref_end, vec, work, stats, mstats):
     """Accept the step: the state and derivative move to its end.  False if
     the state became non-finite (the run stops)."""
@@ -267,7 +267,7 @@ def _advance(m, p, x, f, hh, ref_end, vec, work, stats, mstats):
     return True
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def _switch(m, p, which, hh, x, f, ref, tol, stats, mstats, vec, work, skip):
     """Apply the event of guard ``which`` and restart; returns the guard to
     skip: an event refused where it stands (a separation whose torque rate

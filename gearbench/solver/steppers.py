@@ -61,7 +61,7 @@ def hermite(theta, h, y0, f0, y1, f1, out):
         out[i] = h00 * y0[i] + h10 * h * f0[i] + h01 * y1[i] + h11 * h * f1[i]
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb):
     """Forward-difference Jacobian over the feedback states ``order[:na]``:
     ``jac[a, i] = d f_i / d y_order[a]``.  The other states (the quadratures,
@@ -200,7 +200,7 @@ def _solve(w, jac, order, diag, b, zb, z, out):
         out[order[a]] = z[a]
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def rosenbrock23(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One ode23s step from ``(t, y)`` with ``f0 = f(t, y)``.
 
@@ -279,7 +279,7 @@ R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.
                                      24.76722511418386, -6.594389125716872)
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
     jac, w, order, tdot = lin
@@ -371,7 +371,7 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0,
 C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(_nrt=False)
 def dopri5(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
     n = m.n_state
