@@ -45,3 +45,19 @@ def load(path: str | Path):
         raise ValueError(f"effect module {str(path)!r} failed to import: "
                          f"{type(exc).__name__}: {exc}") from exc
     return module
+
+
+def unload(path: str | Path) -> list[str]:
+    """Forget the effect module at ``path``: its effects leave the registry and
+    its module ``sys.modules`` (a test's throwaway effect); returns their names.
+    A compiled model already generated with them stays on disk."""
+    from .base import REGISTRY
+    path = Path(path).expanduser().resolve()
+    names = [n for n, e in REGISTRY.items() if e.source and Path(e.source).resolve() == path]
+    for n in names:
+        del REGISTRY[n]
+    for name in [m for m, mod in sys.modules.items()
+                 if m.startswith("gearbench_effect_") and getattr(mod, "__file__", None)
+                 and Path(mod.__file__).resolve() == path]:
+        del sys.modules[name]
+    return names
