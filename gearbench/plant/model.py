@@ -49,14 +49,14 @@ def _sign(v):
     return 1 if v > 0.0 else (-1 if v < 0.0 else 0)
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def piece(fx, x, p, modes, ref):
     """A continuous law's side of the amplifier's limit is its mode (on the
     limit itself, after a saturation event, the side it is heading to)."""
     return modes[M_SAT] if continuous_law(p) else linear_region(fx, x, p, modes, ref)
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def watch(fx, p, modes, slope, h, idx, target):
     """The states whose extrema inside a step may hide a crossing: the mesh
     angle in free flight (a graze), the motor speed for the thesis's shift (a
@@ -75,14 +75,14 @@ def watch(fx, p, modes, slope, h, idx, target):
     return n
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def changed(fx, before, modes):
     """An event changed the contact, the bang-bang output or the shift's sign."""
     return (before[M_CONTACT] != modes[M_CONTACT] or before[M_BB] != modes[M_BB]
             or before[M_SHIFT] != modes[M_SHIFT])
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _stale_contact(fx, x, p, modes, ref, g):
     """Fill ``g`` with the guards at ``x``; return the contact guard that is
     already past zero in the current mode (the mode is stale), else -1."""
@@ -96,7 +96,7 @@ def _stale_contact(fx, x, p, modes, ref, g):
     return -1
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _rearm_modes(fx, x, p, modes, ref, g, xi, rtol, atol, stats, f):
     """Switch modes a step left stale; returns how many (each re-evaluates ``f``).
 
@@ -130,7 +130,7 @@ def _rearm_modes(fx, x, p, modes, ref, g, xi, rtol, atol, stats, f):
     return count
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def rearm(fx, x, p, modes, ref, g, xi, rtol, atol, mem, stats, f, moved):
     """After each step: stale modes (only once time moved: an event applied
     where it stands is judged after the next step, else the two could undo
@@ -213,7 +213,7 @@ def start_segment(fx, k, seg_t, seg_v, seg_s, seg_d, x, p, modes, mem, stats):
     return v0, s
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def after_step(fx, x, p, modes, ref, h, stats):
     """Scores after an accepted step of ``h`` s: the time at the voltage limit
     (its crossings are events, so a step is on one side) and the largest error."""

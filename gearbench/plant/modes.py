@@ -114,8 +114,17 @@ def saturation_guard(fx, x, p, modes, ref):
     return abs(u) - p[P_VMAX] if side == 0 else p[P_VMAX] - side * u
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def saturation_reach(fx, x, f, p, modes, ref, slope, h, xe):
+    """The step to take instead of ``h`` (s): shorter only for a continuous law
+    about to cross the amplifier's limit (``_reach``)."""
+    if not continuous_law(p):
+        return h
+    return _reach(fx, x, f, p, modes, ref, slope, h, xe)
+
+
+@nb.njit(_nrt=False)
+def _reach(fx, x, f, p, modes, ref, slope, h, xe):
     """The step to take instead of ``h`` (s) so that a continuous law does
     not cross the amplifier's limit far inside it.
 
@@ -126,9 +135,7 @@ def saturation_reach(fx, x, f, p, modes, ref, slope, h, xe):
     tangent (the law is affine in the state and the set point is a ramp, so
     the prediction is the guard's first-order Taylor step) and end the step
     just past it, where the event is located on an accepted step.  ``xe``:
-    scratch.  Only for a continuous law; other steps are left as they are."""
-    if not continuous_law(p):
-        return h
+    scratch."""
     g0 = saturation_guard(fx, x, p, modes, ref)
     if g0 >= 0.0:
         return h

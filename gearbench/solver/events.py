@@ -108,7 +108,7 @@ def _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt)
     return -1.0
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1, xi, gt):
     """The earliest guard that fires between the step's ends: ``(which, theta)``
     (``which`` = -1 when none).  Fills ``g0``/``g1`` with the guards at its ends.
@@ -137,7 +137,7 @@ def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1,
     return which, theta
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def hidden_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, which, theta,
                     g0, g1, g2, xi, gt, thq, widx, wtarget):
     """Guards that cross and cross back inside the step: tested at the interior

@@ -18,6 +18,7 @@ import numba as nb
 import numpy as np
 
 from .events import first_crossing, hidden_crossing
+from .model import state_count
 from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
 
 METHOD_ROSENBROCK = 0  # ode23s: L-stable Rosenbrock 2(3), Shampine & Reichelt 1997
@@ -102,7 +103,7 @@ def _run(m, p, tab, x, t_out, tol, outputs, stats, mstats, lin, vec, work):
     m.finish(m.args, x, mstats)
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _step(m, method, t, x, f, h, p, modes, ref_t, s, tol, ws, lin, vec):
     """One step of the chosen method (``METHOD_*``): (error norm, rhs evaluations)."""
     if method == METHOD_RODAS4:
@@ -191,7 +192,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
     return t, h, io
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, lin, work):
     """Take the Jacobian again unless it still holds (``jac_ok``: same mode and
     segment, piecewise-linear, on the same piece); then the rows the model
@@ -206,7 +207,7 @@ def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, l
     return jac_ok, jac_region
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip, tol, stats, lin, vec, work):
     """Look for an event inside the accepted step and land on it.
 
@@ -241,7 +242,7 @@ def _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip, tol, stats, lin
     return which, hs, last and theta >= 1.0, max(h, 1e-12 * max(1.0, abs(t))), False
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work):
     """Write the output rows on ``(t, t1]`` from the step's interpolant; returns the next row."""
     while io < t_out.size and t_out[io] <= t1:
@@ -251,15 +252,15 @@ def _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work):
     return io
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _advance(m, p, x, f, hh, ref_end, vec, work, stats, mstats):
     """Accept the step: the state and derivative move to its end.  False if
     the state became non-finite (the run stops)."""
-    for i in range(x.shape[0]):
+    for i in range(state_count(m)):
         x[i] = vec.xn[i]
         f[i] = vec.fn[i]
     stats[S_STEPS] += 1
-    for i in range(x.shape[0]):
+    for i in range(state_count(m)):
         if not math.isfinite(x[i]):
             stats[S_STATUS] = STATUS_NONFINITE
             return False
@@ -267,7 +268,7 @@ def _advance(m, p, x, f, hh, ref_end, vec, work, stats, mstats):
     return True
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _switch(m, p, which, hh, x, f, ref, tol, stats, mstats, vec, work, skip):
     """Apply the event of guard ``which`` and restart; returns the guard to
     skip: an event refused where it stands (a separation whose torque rate

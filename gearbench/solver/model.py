@@ -61,6 +61,22 @@ Input and output
     ``output(args, row, x, p, modes, ref, mem)``: one row of outputs.
     ``finish(args, x, stats)``: the last statistics from the final state.
 """
+from numba.extending import overload
+
+
+def state_count(m) -> int:
+    """``m.n_state``; compiled, a constant of the compiled code (numba reads a
+    module argument's integers as run-time values, and the one-step methods'
+    loops over the states unroll only over a constant count)."""
+    return m.n_state
+
+
+@overload(state_count, inline="always")
+def _state_count(m):
+    n = int(m.pymod.n_state)
+    return lambda m: n
+
+
 NAMES = ("args", "n_state", "n_modes", "n_guards", "n_out", "n_mem", "n_stats", "n_watch",
          "rhs", "feedback", "piecewise_linear", "region", "piece", "jacobian_rows", "limit_step",
          "guards", "watch", "apply_event", "changed", "rearm",

@@ -28,6 +28,8 @@ import math
 
 import numba as nb
 
+from .model import state_count
+
 
 EPS = 2.220446049250313e-16
 WS_ROWS = 11  # scratch vectors every stepper fits in
@@ -85,7 +87,7 @@ def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp,
     rtol 3e-7).  Writes ``lin``'s ``jac`` and ``tdot``; ``ytmp``, ``ftmp``,
     ``fb``: scratch; returns the right-hand-side evaluations spent."""
     jac, w, order, tdot = lin
-    n = m.n_state
+    n = state_count(m)
     na = w.shape[0]
     base_off = m.region(m.args, y, p, modes, ref0) != region
     nfe = 0
@@ -171,13 +173,13 @@ def _factor(jac, order, diag, w):
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def _solve(w, jac, order, diag, b, zb, z, out):
+def _solve(w, jac, order, diag, b, zb, z, out, n):
     """Solve ``(diag I - J) out = b``.  The feedback block is ``W`` (inverted by
     ``_factor``); the other rows are ``diag out_q - sum_a J[q, a] out_a = b_q``
     (their own columns are zero), solved by substitution.  ``zb``, ``z``:
-    scratch (``na`` entries)."""
+    scratch (``na`` entries); ``n`` the number of states (the model's, a
+    compile-time constant, so the loops unroll)."""
     na = w.shape[0]
-    n = b.shape[0]
     for a in range(na):
         zb[a] = b[order[a]]
     for a in range(na):
@@ -216,7 +218,7 @@ def rosenbrock23(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, yne
     inverse and the states' order (``feedback_states``).
     """
     jac, w, order, tdot = lin
-    n = m.n_state
+    n = state_count(m)
     hd = h * D_ROS
     ytmp = ws[0]
     ftmp = ws[1]
@@ -233,14 +235,14 @@ def rosenbrock23(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, yne
     # k1 = W^-1 (f0 + h d T)
     for i in range(n):
         rhsv[i] = (f0[i] + hd * tdot[i]) * diag
-    _solve(w, jac, order, diag, rhsv, zb, z, k1)
+    _solve(w, jac, order, diag, rhsv, zb, z, k1, n)
     for i in range(n):
         ytmp[i] = y[i] + 0.5 * h * k1[i]
     m.rhs(m.args, ytmp, p, modes, ref0 + slope * 0.5 * h, f1)
     # k2 = W^-1 (f1 - k1) + k1
     for i in range(n):
         rhsv[i] = (f1[i] - k1[i]) * diag
-    _solve(w, jac, order, diag, rhsv, zb, z, k2)
+    _solve(w, jac, order, diag, rhsv, zb, z, k2, n)
     for i in range(n):
         k2[i] += k1[i]
         ynew[i] = y[i] + h * k2[i]
@@ -248,7 +250,7 @@ def rosenbrock23(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, yne
     # k3 = W^-1 (f2 - e32 (k2 - f1) - 2 (k1 - f0) + h d T)
     for i in range(n):
         rhsv[i] = (fnew[i] - E32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f0[i]) + hd * tdot[i]) * diag
-    _solve(w, jac, order, diag, rhsv, zb, z, k3)
+    _solve(w, jac, order, diag, rhsv, zb, z, k3, n)
     for i in range(n):
         ftmp[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
         s0[i] = f0[i]
@@ -283,7 +285,7 @@ R_D31, R_D32, R_D33, R_D34, R_D35 = (-0.6762803392801253, 6.087714651680015, 16.
 def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One RODAS step (order 4, embedded 3, L-stable); same contract as ``rosenbrock23``."""
     jac, w, order, tdot = lin
-    n = m.n_state
+    n = state_count(m)
     ytmp = ws[0]
     ftmp = ws[1]
     k1 = ws[3]
@@ -300,28 +302,28 @@ def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fne
     hinv = 1.0 / h
     for i in range(n):
         rhsv[i] = f0[i] + h * R_D1 * tdot[i]
-    _solve(w, jac, order, diag, rhsv, zb, z, k1)
+    _solve(w, jac, order, diag, rhsv, zb, z, k1, n)
     # stage 2
     for i in range(n):
         ytmp[i] = y[i] + R_A21 * k1[i]
     m.rhs(m.args, ytmp, p, modes, ref0 + slope * R_C2 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D2 * tdot[i] + hinv * R_C21 * k1[i]
-    _solve(w, jac, order, diag, rhsv, zb, z, k2)
+    _solve(w, jac, order, diag, rhsv, zb, z, k2, n)
     # stage 3
     for i in range(n):
         ytmp[i] = y[i] + R_A31 * k1[i] + R_A32 * k2[i]
     m.rhs(m.args, ytmp, p, modes, ref0 + slope * R_C3 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D3 * tdot[i] + hinv * (R_C31 * k1[i] + R_C32 * k2[i])
-    _solve(w, jac, order, diag, rhsv, zb, z, k3)
+    _solve(w, jac, order, diag, rhsv, zb, z, k3, n)
     # stage 4
     for i in range(n):
         ytmp[i] = y[i] + R_A41 * k1[i] + R_A42 * k2[i] + R_A43 * k3[i]
     m.rhs(m.args, ytmp, p, modes, ref0 + slope * R_C4 * h, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + h * R_D4 * tdot[i] + hinv * (R_C41 * k1[i] + R_C42 * k2[i] + R_C43 * k3[i])
-    _solve(w, jac, order, diag, rhsv, zb, z, k4)
+    _solve(w, jac, order, diag, rhsv, zb, z, k4, n)
     # stage 5 (at t + h)
     ref1 = ref0 + slope * h
     for i in range(n):
@@ -329,7 +331,7 @@ def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fne
     m.rhs(m.args, ytmp, p, modes, ref1, ftmp)
     for i in range(n):
         rhsv[i] = ftmp[i] + hinv * (R_C51 * k1[i] + R_C52 * k2[i] + R_C53 * k3[i] + R_C54 * k4[i])
-    _solve(w, jac, order, diag, rhsv, zb, z, k5)
+    _solve(w, jac, order, diag, rhsv, zb, z, k5, n)
     # stage 6: from the embedded (third-order) solution to the fourth-order one
     for i in range(n):
         ytmp[i] += k5[i]
@@ -337,7 +339,7 @@ def rodas4(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fne
     for i in range(n):
         rhsv[i] = ftmp[i] + hinv * (R_C61 * k1[i] + R_C62 * k2[i] + R_C63 * k3[i] + R_C64 * k4[i]
                                     + R_C65 * k5[i])
-    _solve(w, jac, order, diag, rhsv, zb, z, k6)
+    _solve(w, jac, order, diag, rhsv, zb, z, k6, n)
     for i in range(n):
         ynew[i] = ytmp[i] + k6[i]
     m.rhs(m.args, ynew, p, modes, ref1, fnew)
@@ -374,7 +376,7 @@ C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
 @nb.njit(_nrt=False)
 def dopri5(m, t, y, f0, h, p, modes, ref0, slope, rtol, atol, ws, lin, ynew, fnew, s0, s1):
     """One Dormand-Prince 5(4) step; same contract as ``rosenbrock23``."""
-    n = m.n_state
+    n = state_count(m)
     k2 = ws[0]
     k3 = ws[1]
     k4 = ws[2]
