@@ -42,7 +42,7 @@ def test_stage_solve_matches_a_dense_solve(na, seed, log_diag):
     w = np.empty((na, 2 * na))
     _factor(jac, order, d, w)
     out = np.empty(N)
-    _solve(w, jac, order, d, b, np.empty(N), np.empty(N), out)
+    _solve(w, jac, order, d, b, np.empty(N), np.empty(N), out, N)
     m = d * np.eye(N) - full
     want = np.linalg.solve(m, b)
     assert np.linalg.norm(m @ out - b) <= 1e-9 * np.linalg.norm(m, 1) * max(np.linalg.norm(want), 1.0)

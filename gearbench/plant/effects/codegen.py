@@ -29,6 +29,7 @@ import importlib.util
 import inspect
 import os
 import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,6 +39,7 @@ from .base import REGISTRY
 VERSION = "1"  # of the generated source's shape
 
 _MODELS: dict = {}
+_LOCK = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -200,11 +202,16 @@ def _folder() -> Path:
 
 def compiled_model():
     """The generated module for the effects registered now (written and
-    imported once per set of effects)."""
+    imported once per set of effects; thread-safe: a Dask worker's threads
+    would otherwise see one another's half-imported module)."""
     state = tuple((e.name, e.source, id(type(e))) for e in compiled_effects())
-    if state not in _MODELS:
-        _MODELS[state] = _generate()
-    return _MODELS[state]
+    model = _MODELS.get(state)
+    if model is None:
+        with _LOCK:
+            model = _MODELS.get(state)
+            if model is None:
+                model = _MODELS[state] = _generate()
+    return model
 
 
 def _generate():
