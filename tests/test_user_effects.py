@@ -160,6 +160,17 @@ SCRIPT = textwrap.dedent('''
     r = CliRunner().invoke(main, ["compare", str(work / "rig_cogging.yaml"), str(work / "cogging.csv"),
                                   "--results", str(work / "results"), "--json"])
     out["compare"] = {"exit_code": r.exit_code, "output": r.output}
+    # run: a closed-loop experiment on the plant file with the cogging, and on the one without
+    runs = {}
+    for plant_name in ("rig_cogging.yaml", "rig.yaml"):
+        exp = work / f"run_{plant_name}"
+        exp.write_text(f"name: run\nduration_s: 1.0\nplant: {plant_name}\nprofiles: [profile1]\n"
+                       "controllers: [{kind: p, kp: 5}]\nsolver: {rtol: 1.0e-6}\n")
+        r = CliRunner().invoke(main, ["run", str(exp), "--results", str(work / f"out_{plant_name}")])
+        runs[plant_name] = {"exit_code": r.exit_code, "output": r.output[-2000:],
+                            "csv": (work / f"out_{plant_name}" / "run.csv").read_text()
+                            if (work / f"out_{plant_name}" / "run.csv").exists() else ""}
+    out["run"] = runs
     print("RESULT " + json.dumps(out))
 ''')
 
@@ -228,3 +239,15 @@ def test_a_process_with_other_effects_reads_the_same_cache(examples):
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=600,
                           env={**os.environ, "PYTHONPATH": str(REPO)})
     assert proc.returncode == 0 and proc.stdout.strip() == "True", proc.stderr[-2000:]
+
+
+def test_run_uses_the_user_effect(examples):
+    """`gearbench run` of an experiment whose plant file names the cogging (and its
+    module) succeeds, and its IAE differs from the same experiment without it."""
+    runs = examples["run"]
+    assert all(r["exit_code"] == 0 for r in runs.values()), {k: r["output"] for k, r in runs.items()}
+    import io
+
+    import pandas as pd
+    iae = {k: pd.read_csv(io.StringIO(r["csv"]))["iae_deg_s"].iloc[0] for k, r in runs.items()}
+    assert iae["rig_cogging.yaml"] != pytest.approx(iae["rig.yaml"], rel=1e-6)

@@ -189,7 +189,7 @@ def _sampled_pv(k, seg_t, v0, d, x, p, mem):
     return p[P_CTRL_GAIN] * (saturate(held, p[P_VMAX]) + d)
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def start_segment(fx, k, seg_t, seg_v, seg_s, seg_d, x, p, modes, mem, stats):
     """The discrete update where segment ``k`` starts; returns its ``(ref, slope)``.
 
@@ -223,7 +223,7 @@ def after_step(fx, x, p, modes, ref, h, stats):
         stats[T_MAX_ERR] = max(stats[T_MAX_ERR], abs(ref - load_angle(x, p)))
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def output(fx, row, x, p, modes, ref, mem):
     """One row of the sampled outputs (``layout.O_*``)."""
     row[O_SETPOINT] = mem[MEM_R0] if p[P_CTRL] == CTRL_SAMPLED_PV else ref

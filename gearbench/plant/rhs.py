@@ -180,7 +180,7 @@ def feedback_states(fx, p):
     return np.concatenate((np.flatnonzero(used), np.flatnonzero(~used))), int(used.sum())
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def piecewise_linear(fx, p):
     """True when ``rhs`` is affine in the state inside each mode and each
     ``linear_region`` (every contact law: ElastoBacklash's kink is a mode), and

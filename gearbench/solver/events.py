@@ -13,6 +13,7 @@ import math
 
 import numba as nb
 
+from .model import guard_count
 from .steppers import hermite
 
 
@@ -122,7 +123,7 @@ def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1,
     m.guards(m.args, xn, p, modes, ref_t + slope * hh, g1)
     which = -1
     theta = 1.0
-    for j in range(g0.shape[0]):
+    for j in range(guard_count(m)):
         th = -1.0
         if j != skip and g0[j] < 0.0 and g1[j] >= 0.0:
             th = locate(m, j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0)
@@ -153,7 +154,7 @@ def hidden_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, which,
             continue
         hermite(tq, hh, x, f, xn, fn, xi)
         m.guards(m.args, xi, p, modes, ref_t + slope * tq * hh, g2)
-        for j in range(g0.shape[0]):
+        for j in range(guard_count(m)):
             if j != skip and g0[j] < 0.0 and g1[j] < 0.0 and g2[j] >= 0.0:
                 th = locate(m, j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, tq)
                 if which < 0 or th < theta:

@@ -124,7 +124,7 @@ def _step_factor(err, method):
     return 0.9 * err ** (-1.0 / 3.0 if method == METHOD_ROSENBROCK else -0.2)
 
 
-@nb.njit(_nrt=False)
+@nb.njit(inline="always", _nrt=False)
 def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats, lin, vec, work):
     """Integrate segment ``k`` over ``[ta, tb]``; returns ``(t, h, io)``: where
     it stopped, the next step to try and the next output row."""

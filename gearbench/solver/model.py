@@ -77,6 +77,17 @@ def _state_count(m):
     return lambda m: n
 
 
+def guard_count(m) -> int:
+    """``m.n_guards``, a compile-time constant likewise (the event scan's loops)."""
+    return m.n_guards
+
+
+@overload(guard_count, inline="always")
+def _guard_count(m):
+    n = int(m.pymod.n_guards)
+    return lambda m: n
+
+
 NAMES = ("args", "n_state", "n_modes", "n_guards", "n_out", "n_mem", "n_stats", "n_watch",
          "rhs", "feedback", "piecewise_linear", "region", "piece", "jacobian_rows", "limit_step",
          "guards", "watch", "apply_event", "changed", "rearm",
