@@ -164,8 +164,8 @@ SCRIPT = textwrap.dedent('''
     runs = {}
     for plant_name in ("rig_cogging.yaml", "rig.yaml"):
         exp = work / f"run_{plant_name}"
-        exp.write_text(f"name: run\nduration_s: 1.0\nplant: {plant_name}\nprofiles: [profile1]\n"
-                       "controllers: [{kind: p, kp: 5}]\nsolver: {rtol: 1.0e-6}\n")
+        exp.write_text(f"name: run\\nduration_s: 1.0\\nplant: {plant_name}\\nprofiles: [profile1]\\n"
+                       "controllers: [{kind: p, kp: 5}]\\nsolver: {rtol: 1.0e-6}\\n")
         r = CliRunner().invoke(main, ["run", str(exp), "--results", str(work / f"out_{plant_name}")])
         runs[plant_name] = {"exit_code": r.exit_code, "output": r.output[-2000:],
                             "csv": (work / f"out_{plant_name}" / "run.csv").read_text()
