@@ -7,6 +7,7 @@ Units are SI (s, rad, V).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,3 +129,25 @@ def test_jacobian_at_the_limit_is_that_of_the_side_it_heads_to(thesis):
     np.testing.assert_allclose(t_edge, t_in, rtol=1e-8, atol=1e-8 * np.abs(t_in).max())
     # and the feedback is there: the inside piece, not the saturated one
     assert j_edge[list(order[:na]).index(L.X_THM), L.X_I] == pytest.approx(-kp / n_ratio / p[L.P_L], rel=1e-8)
+
+
+def test_the_integrator_knows_nothing_of_gears():
+    """gearbench/solver/ imports only itself, numba, numpy and the standard library:
+    the geartrain reaches it as a model (solver/model.py), never by import."""
+    import ast
+
+    allowed = {"math", "collections", "numba", "numpy", "__future__"}
+    for path in sorted((Path(__file__).resolve().parents[1] / "gearbench" / "solver").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                assert node.level == 1 or node.module.split(".")[0] in allowed, (path.name, node.module)
+            elif isinstance(node, ast.Import):
+                assert all(a.name.split(".")[0] in allowed for a in node.names), path.name
+
+
+def test_the_generated_model_meets_the_contract():
+    """The geartrain's generated model module has every name the integrator asks for."""
+    from gearbench.solver.model import NAMES, missing
+    model = compiled_model()
+    assert missing(model) == [] and len(NAMES) == 25
+    assert model.args is model  # its effects' sums are its own args
