@@ -333,7 +333,7 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
         raise ValueError(f"p has {len(p)} slots but the compiled model with the effects registered in this "
                          f"process has {model.SIZE}: pack the plant in the process that simulates it")
     # a vector packed before an effect module was loaded lacks only that module's blocks (absent: 0)
-    p = np.concatenate((p, np.zeros(model.SIZE - len(p))))
+    p = np.concatenate((p, np.zeros(model.SIZE - len(p)))) if len(p) < model.SIZE else p.copy()
     p[L.P_SPEED_EPS] = SHIFT_SPEED_REL * scales[L.X_WM]
     p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
     p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]

@@ -152,6 +152,7 @@ class Effect:
 
 
 REGISTRY: dict[str, Effect] = {}
+REVISION = [0]  # bumped at every registration: what is derived from the registry is cached by it
 
 
 PLACES = ("motor", "load", "voltage", "mesh")
@@ -178,6 +179,7 @@ def register(cls):
             raise ValueError(f"effect {cls.name!r}: places {bad} must be among {PLACES}")
     cls.source = None if inside else path
     REGISTRY[cls.name] = cls()
+    REVISION[0] += 1
     return cls
 
 

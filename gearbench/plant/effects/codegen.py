@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ... import layout as L
-from .base import REGISTRY
+from .base import REGISTRY, REVISION
 
 VERSION = "1"  # of the generated source's shape
 
@@ -61,6 +61,21 @@ def compiled_effects() -> list:
     return [e for e in REGISTRY.values() if e.term is not None]
 
 
+def _per_revision(fn):
+    """Cache ``fn()`` for the registry's current revision (simulate calls these per run)."""
+    memo: dict = {}
+
+    def wrapper():
+        rev = REVISION[0]
+        if rev not in memo:
+            memo.clear()
+            memo[rev] = fn()
+        return memo[rev]
+    wrapper.__doc__ = fn.__doc__
+    return wrapper
+
+
+@_per_revision
 def blocks() -> dict[tuple[str, str], Block]:
     """The layout of the effects' slots, keyed by (effect, place)."""
     out, offset = {}, L.P_SIZE
@@ -71,6 +86,7 @@ def blocks() -> dict[tuple[str, str], Block]:
     return out
 
 
+@_per_revision
 def size() -> int:
     """Length of the parameter vector with every registered effect's blocks."""
     return max((b.offset + 1 + b.size for b in blocks().values()), default=L.P_SIZE)
@@ -204,13 +220,13 @@ def compiled_model():
     """The generated module for the effects registered now (written and
     imported once per set of effects; thread-safe: a Dask worker's threads
     would otherwise see one another's half-imported module)."""
-    state = tuple((e.name, e.source, id(type(e))) for e in compiled_effects())
-    model = _MODELS.get(state)
+    model = _MODELS.get(REVISION[0])
     if model is None:
         with _LOCK:
-            model = _MODELS.get(state)
+            rev = REVISION[0]
+            model = _MODELS.get(rev)
             if model is None:
-                model = _MODELS[state] = _generate()
+                model = _MODELS[rev] = _generate()
     return model
 
 

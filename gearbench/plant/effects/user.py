@@ -51,11 +51,12 @@ def unload(path: str | Path) -> list[str]:
     """Forget the effect module at ``path``: its effects leave the registry and
     its module ``sys.modules`` (a test's throwaway effect); returns their names.
     A compiled model already generated with them stays on disk."""
-    from .base import REGISTRY
+    from .base import REGISTRY, REVISION
     path = Path(path).expanduser().resolve()
     names = [n for n, e in REGISTRY.items() if e.source and Path(e.source).resolve() == path]
     for n in names:
         del REGISTRY[n]
+    REVISION[0] += 1
     for name in [m for m, mod in sys.modules.items()
                  if m.startswith("gearbench_effect_") and getattr(mod, "__file__", None)
                  and Path(mod.__file__).resolve() == path]:
