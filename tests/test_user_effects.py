@@ -251,3 +251,42 @@ def test_run_uses_the_user_effect(examples):
     import pandas as pd
     iae = {k: pd.read_csv(io.StringIO(r["csv"]))["iae_deg_s"].iloc[0] for k, r in runs.items()}
     assert iae["rig_cogging.yaml"] != pytest.approx(iae["rig.yaml"], rel=1e-6)
+
+
+def test_a_term_at_an_undeclared_place_is_named(tmp_path):
+    """An effect whose compiled() names a place it did not declare gets a ValueError
+    naming the effect, the place and its places, when the plant is packed."""
+    from gearbench.plant.effects import AddedEffect
+    from gearbench.plant.pack import pack_plant
+    module = tmp_path / "misplaced.py"
+    module.write_text(textwrap.dedent('''
+        import numba as nb
+        from gearbench.plant.effects import Effect, Param, register
+
+        @nb.njit
+        def torque(p, o, theta, w, eps):
+            return p[o]
+
+        @register
+        class Misplaced(Effect):
+            """A constant torque that says load but packs for the motor."""
+            name = "misplaced_torque"
+            signature = "a constant"
+            acts_on = "load torque"
+            params = (Param("torque", "N m", -1.0, 1.0, 0.1),)
+            term = torque
+            places = ("load",)
+            slots = ("torque, N m",)
+
+            def compiled(self, values, plant):
+                return "motor", (float(values["torque"]),)
+    '''))
+    from gearbench.plant.effects.user import load
+    load(module)
+    try:
+        plant = load_plant(RIG).with_effects(AddedEffect("misplaced_torque", {"torque": 0.1}))
+        with pytest.raises(ValueError, match=r"misplaced_torque.*'motor'.*\('load',\)"):
+            pack_plant(plant)
+    finally:
+        unload(module)
+    assert "misplaced_torque" not in REGISTRY

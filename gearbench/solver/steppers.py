@@ -65,22 +65,21 @@ def hermite(theta, h, y0, f0, y1, f1, out):
 
 @nb.njit(_nrt=False)
 def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb):
-    """Forward-difference Jacobian over the feedback states ``order[:na]``:
-    ``jac[a, i] = d f_i / d y_order[a]``.  The other states (the quadratures,
-    and dynamic states this plant and controller never read: a shaft's twist
-    without a shaft, the integrator of a P controller) feed nothing back, so
-    their columns are exactly zero and are not evaluated.  Also the time
-    derivative ``tdot = d f / d t`` through the set point's slope.
+    """Forward-difference Jacobian over the feedback states ``order[:na]``
+    (``m.feedback``): ``jac[a, i] = d f_i / d y_order[a]``.  The other states
+    feed nothing back (the geartrain's quadratures, a shaft's twist without a
+    shaft, the integrator of a P controller), so their columns are exactly zero
+    and are not evaluated.  Also the time derivative ``tdot = d f / d t``
+    through the input's slope.
 
-    A difference never straddles the amplifier's limit: where the forward
-    point lies off ``region`` (the side of the limit the step is on,
-    ``linear_region``'s values), the backward one is used, so the Jacobian is
-    that of the piece the step is on (a reused Jacobian that mixed two pieces
-    would spoil every step after it).  On the limit itself, after a located
-    saturation event, ``region`` is the side the solution is heading to, and
-    ``y`` may lie a round-off off it (a command of 12 + 8e-11 V clipped to
-    12 V while heading inside): then ``f0`` is of the other piece, and each
-    difference is taken between two points on ``region``'s side instead,
+    A difference never straddles a kink between two of the model's affine
+    pieces (``m.region``; the geartrain's: the side of the amplifier's limit):
+    where the forward point lies off ``region`` (the piece the step is on), the
+    backward one is used, so a reused Jacobian never mixes two pieces.  On the
+    kink itself, after a located event, ``region`` is the piece the solution is
+    heading to and ``y`` may lie a round-off off it (a command of 12 + 8e-11 V
+    clipped to 12 V while heading inside): then ``f0`` is of the other piece,
+    and each difference is taken between two points on ``region``'s side,
     ``y + dy`` and ``y + 2 dy`` (profile 1, P Kp = 50, rtol 1e-7: ``f0``'s
     piece put a 1.4e-5 relative error into d(di/dt)/d(theta_m), and the reused
     Jacobian held the 3 s ramp to 0.5 ms steps, 6116 in all against 707 at

@@ -183,6 +183,19 @@ def register(cls):
     return cls
 
 
+def registered(name: str, source: str | None = None) -> Effect:
+    """The registered effect ``name``, loading its file ``source`` first when it
+    is not registered yet (a worker that received it from another process)."""
+    if name not in REGISTRY and source:
+        from .user import load
+        load(source)
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise KeyError(f"effect {name!r} is not registered; name its module in the plant "
+                       f"file's effect_modules") from None
+
+
 @dataclass(frozen=True)
 class AddedEffect:
     """An effect in a plant: its registered name and its parameter values
@@ -200,14 +213,7 @@ class AddedEffect:
 
     @property
     def effect(self) -> Effect:
-        if self.name not in REGISTRY and self.source:
-            from .user import load
-            load(self.source)
-        try:
-            return REGISTRY[self.name]
-        except KeyError:
-            raise KeyError(f"effect {self.name!r} is not registered; name its module in the plant "
-                           f"file's effect_modules") from None
+        return registered(self.name, self.source)
 
     def to_dict(self) -> dict:
         return {"type": self.name, **self.values}

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
-import inspect
 import os
 import sys
 import threading
@@ -34,7 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ... import layout as L
-from .base import REGISTRY, REVISION
+from .base import REGISTRY, REVISION, registered
 
 VERSION = "1"  # of the generated source's shape
 
@@ -50,15 +49,16 @@ class Block:
     size: int     # numbers after the count
 
 
-def term_of(name: str):
-    """The compiled term of the registered effect ``name`` (the function itself:
-    a numba dispatcher read through an instance would be bound as a method)."""
-    return inspect.getattr_static(type(REGISTRY[name]), "term")
+def term_of(effect):
+    """The compiled term of ``effect`` (None when it has none), read from its
+    class: a numba dispatcher read through an instance is bound as a method,
+    a new object at every read."""
+    return type(effect).term
 
 
 def compiled_effects() -> list:
     """The registered effects with a compiled term, in registry order."""
-    return [e for e in REGISTRY.values() if e.term is not None]
+    return [e for e in REGISTRY.values() if term_of(e) is not None]
 
 
 def _per_revision(fn):
@@ -100,9 +100,12 @@ def pack_effects(effects, plant, p) -> bool:
     linear = True
     for added in effects:
         e = added.effect
-        if e.term is None:
+        if term_of(e) is None:
             continue
         place, numbers = e.compiled(added.values, plant)
+        if place not in e.places:
+            raise ValueError(f"effect {e.name!r}: compiled() named place {place!r}, which is not among "
+                             f"its places {e.places}; return one of them or declare it")
         b = table[(e.name, place)]
         if len(numbers) != b.size:
             raise ValueError(f"effect {e.name!r} gave {len(numbers)} numbers for its {b.size} slots {e.slots}")
@@ -168,11 +171,9 @@ def jacobian(t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb)
 def term_module(name: str, source_file: str | None):
     """The module that holds effect ``name``'s term (loading a file first when
     the effect is not registered) and the term's name there."""
-    if name not in REGISTRY and source_file:
-        from .user import load
-        load(source_file)
-    term = term_of(name)
-    module = sys.modules[type(REGISTRY[name]).__module__]
+    effect = registered(name, source_file)
+    term = term_of(effect)
+    module = sys.modules[type(effect).__module__]
     for attr, value in vars(module).items():
         if value is term:
             return module, attr
