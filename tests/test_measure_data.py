@@ -244,3 +244,12 @@ def test_round_trip_property(tmp_path_factory, steps, values):
     np.testing.assert_allclose(back.time_s, t, rtol=1e-9)
     np.testing.assert_allclose(back.input, y, rtol=1e-9, atol=1e-300)
     assert np.all(np.diff(back.time_s) > 0)
+
+
+def test_an_integer_beyond_the_float_range_is_named(tmp_path):
+    """A 400-digit integer (the fuzz found it) is an infinite value named by column and row,
+    not pandas' OverflowError."""
+    path = tmp_path / "huge.csv"
+    path.write_text("time_s,voltage_V,motor_angle_deg\n0.0,0.0," + "9" * 400 + "\n0.001,0.0,0.0\n")
+    with pytest.raises(MeasurementError, match=r"column 'motor_angle_deg': infinite value inf at data row 1"):
+        read_measurement(path)

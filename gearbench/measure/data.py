@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import difflib
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -330,7 +331,21 @@ def _to_float(column: pd.Series, decimal: str = ".") -> tuple[np.ndarray, np.nda
     text = column
     if decimal == ",":  # pandas leaves a column with any non-number as text, decimal commas too
         text = column.astype("string").str.replace(",", ".", regex=False)
-    return pd.to_numeric(text, errors="coerce").to_numpy(dtype=float), column.to_numpy(dtype=object)
+    try:
+        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+    except OverflowError:  # an integer too long for pandas' int64 path; as a float it is +-inf
+        values = np.array([_float_or_nan(v) for v in text], dtype=float)
+    return values, column.to_numpy(dtype=object)
+
+
+def _float_or_nan(v) -> float:
+    """``float(v)``; an integer beyond the float range is +-inf, a non-number NaN."""
+    try:
+        return float(v)
+    except OverflowError:
+        return math.inf if v > 0 else -math.inf
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def read_measurement(path: str | Path, columns=None, units=None) -> Measurement:
