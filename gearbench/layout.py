@@ -44,6 +44,10 @@ P_KV = 30          # sampled position-velocity controller: velocity gain, V / (r
 P_CTRL_GAIN = 31   # sampled controller: input units per controller volt (EMPS gtau, N/V)
 P_FRIC_EPS_M = 32  # friction regularisation speed at the motor, rad/s (the solver's)
 P_FRIC_EPS_L = 33  # friction regularisation speed at the load, rad/s
+P_STICK_M = 34     # 1.0 when event-driven stick-slip friction acts at the motor (packer)
+P_STICK_L = 35     # 1.0 when it acts at the load (packer)
+P_STOP_EPS_M = 36  # a slipping body on the rotor's side has stopped when its speed is this far past 0,
+P_STOP_EPS_L = 37  # ... on the load's: the speeds' absolute tolerances, rad/s (the solver's)
 P_DELAY = 52       # sampled controller: 1.0 holds the previous sample's command (one sample of delay)
 P_FF = 53          # velocity feedforward, V per rad/s of set-point speed at the output (0 = none)
 P_REF_SLOPE = 54   # the current segment's set-point slope, rad/s (written by model.start_segment)
@@ -90,7 +94,9 @@ M_SHIFT = 2    # sign used by the set-point shift: thesis: +1 when motor speed >
 M_SAT = 3      # side of the amplifier's limit a continuous law is on: -1, 0 (inside), +1
 M_DAMP = 4     # ElastoBacklash in contact: 1 while the damping torque is limited to the
                # spring torque (T = 2 Tc), 0 while it is not (T = Tc + Td)
-N_MODES = 5
+M_STICK_M = 5  # stick-slip friction on the rotor's body: +1 / -1 slipping forward / backward, 0 stuck
+M_STICK_L = 6  # ... on the body carrying the load (plant/friction.py says which body each is)
+N_MODES = 7
 
 # ---- guards (an event fires when a guard goes from < 0 to >= 0, or from ----
 #      exactly 0 where a step starts to > 0) -------------------------------
@@ -102,7 +108,10 @@ G_BB_B = 4
 G_SHIFT = 5
 G_SAT = 6      # a continuous law reaches or leaves the amplifier's limit (V)
 G_KINK = 7     # ElastoBacklash's damping meets its spring torque (N m)
-N_GUARDS = 8
+G_STICK_M = 8  # stick-slip on the rotor's body: slipping, its speed reaches 0 (rad/s); stuck, the
+               # torque on it reaches its breakaway level (N m)
+G_STICK_L = 9  # the same on the body carrying the load
+N_GUARDS = 10
 
 # ---- sampled output columns ----------------------------------------------
 O_SETPOINT = 0     # rad

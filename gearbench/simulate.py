@@ -337,6 +337,8 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     p[L.P_SPEED_EPS] = SHIFT_SPEED_REL * scales[L.X_WM]
     p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
     p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]
+    p[L.P_STOP_EPS_M] = options.rtol * scales[L.X_WM]
+    p[L.P_STOP_EPS_L] = options.rtol * scales[L.X_WP if p[L.P_RIGID] > 0.0 else L.X_WL]
     if output_times is None:
         t_out = np.linspace(0.0, t_end, int(round(t_end / options.output_dt_s)) + 1)
     else:

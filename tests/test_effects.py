@@ -60,9 +60,13 @@ def test_coulomb_slides_with_constant_deceleration_and_sticks_below_its_level():
     t, out = run(body(coulomb(2.0)), [0.0], [3.0], t_end=1.0)
     assert out[-1, L.O_WM] == pytest.approx(1.0, rel=1e-3)
     assert out[-1, L.O_MOTOR] == pytest.approx(0.5, rel=2e-3)
-    # a push of 1.5 N m does not move it: it creeps at the regularisation speed only
-    t, out = run(body(coulomb(2.0)), [0.0], [1.5], t_end=1.0, rel=1e-6)
-    assert abs(out[-1, L.O_MOTOR]) < 2e-6
+    # a push of 1.5 N m does not move it at all (stick-slip, the default) ...
+    t, out = run(body(coulomb(2.0)), [0.0], [1.5], t_end=1.0)
+    assert np.all(out[:, L.O_MOTOR] == 0.0)
+    # ... and regularized, it creeps at the regularisation speed only
+    creep = AddedEffect("coulomb_friction", {"location": "motor", "torque": 2.0, "model": "regularized"})
+    t, out = run(body(creep), [0.0], [1.5], t_end=1.0, rel=1e-6)
+    assert 0.0 < abs(out[-1, L.O_MOTOR]) < 2e-6
     # asymmetric: backward friction 3 N m
     eff = AddedEffect("coulomb_friction", {"location": "motor", "torque": 2.0, "torque_negative": 3.0})
     t, out = run(body(eff), [0.0], [-4.0], t_end=1.0)
@@ -133,10 +137,12 @@ def test_friction_regularisation_against_modelica_stick_slip():
     solved by Dymola with event-driven stick-slip.  (The example's ``mass`` has
     the same friction from a 50-point table and differs from stop1 by 0.038 m.)  Ours: the same as a
     torque-driven body (1 rad = 1 m), Stribeck T_s = 15, T_c = 5, w_s = 0.5 m/s.
-    The error of the tanh regularisation falls as its speed shrinks."""
+    The error of the tanh regularisation (``model: regularized``) falls as its
+    speed shrinks; the event-driven default is in ``test_stick_slip.py``."""
     ref = pd.read_csv(ANCHOR).drop_duplicates("time", keep="last")
     plant = body(AddedEffect("stribeck_friction", {"location": "motor", "static_torque": 15.0,
-                                                   "coulomb_torque": 5.0, "stribeck_speed": 0.5}),
+                                                   "coulomb_torque": 5.0, "stribeck_speed": 0.5,
+                                                   "model": "regularized"}),
                  AddedEffect("viscous_friction", {"location": "motor", "coefficient": 1.0}))
     tk = np.linspace(0.0, 5.0, 5001)
     f = 25.0 * np.sin(2 * np.pi * 0.25 * tk)

@@ -269,6 +269,8 @@ def _check_effect(item: Any, path: str, has_leadscrew: bool, problems: list[str]
     fields: dict[str, Any] = {}
     for opt, choices in effect.options.items():
         fields[opt] = Choice(choices, required=opt != "location", default="load")
+    for opt, choices in effect.settings.items():
+        fields[opt] = Choice(choices, required=False)
     loc = item.get("location")
     if loc == "carriage" and not has_leadscrew:
         problems.append(f"{join(path, 'location')}: 'carriage' needs a plant with a leadscrew")

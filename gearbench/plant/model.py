@@ -14,13 +14,14 @@ import numba as nb
 from ..control.laws import saturate
 from ..solver.model import NAMES
 from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, G_BB_A, G_BB_B, G_ENTER_NEG,
-                      G_ENTER_POS, G_KINK, G_LEAVE, G_SAT,
+                      G_ENTER_POS, G_KINK, G_LEAVE, G_SAT, G_STICK_L, G_STICK_M, M_STICK_L, M_STICK_M,
                       G_SHIFT, M_BB, M_CONTACT, M_SAT, M_SHIFT, N_GUARDS, N_MODEL_STATS, N_MODES, N_OUT,
                       N_SOLVER_STATS, N_STATE, O_CURRENT, O_DELTA, O_LOAD, O_MOTOR, O_SETPOINT, O_TORQUE,
                       O_VOLTAGE, O_WL, O_WM, P_COMP, P_CTRL, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N,
                       P_REF_SLOPE, P_SHIFT, P_VMAX, S_IAE, S_ISE, S_MAX_ERR, S_SWITCHES, S_T_SAT,
                       X_DELTA, X_I, X_IAE, X_ISE, X_THM, X_WL, X_WM)
-from .modes import (apply_event, classify, classify_controller, classify_damping, continuous_law,
+from . import friction
+from .modes import (apply_event, break_away, classify, classify_controller, classify_damping, continuous_law,
                     direction_of_segment, guards, saturation_reach, switch_mode)
 from .rhs import (applied_input, feedback_states, linear_region, load_angle, mesh_torque,
                   piecewise_linear, quadrature_rows, rhs)
@@ -72,14 +73,20 @@ def watch(fx, p, modes, slope, h, idx, target):
     if p[P_CTRL] == CTRL_BANGBANG:
         idx[n], target[n] = X_THM, slope * h * p[P_N]
         n += 1
+    for b in range(2):
+        if friction.present(p, b) and modes[M_STICK_M + b] != 0:
+            idx[n], target[n] = friction.speed_index(p, b), 0.0
+            n += 1
     return n
 
 
 @nb.njit(inline="always", _nrt=False)
 def changed(fx, before, modes):
-    """An event changed the contact, the bang-bang output or the shift's sign."""
+    """An event changed the contact, the bang-bang output, the shift's sign or a
+    body's stick-slip mode."""
     return (before[M_CONTACT] != modes[M_CONTACT] or before[M_BB] != modes[M_BB]
-            or before[M_SHIFT] != modes[M_SHIFT])
+            or before[M_SHIFT] != modes[M_SHIFT] or before[M_STICK_M] != modes[M_STICK_M]
+            or before[M_STICK_L] != modes[M_STICK_L])
 
 
 @nb.njit(inline="always", _nrt=False)
@@ -120,6 +127,15 @@ def _rearm_modes(fx, x, p, modes, ref, g, xi, rtol, atol, stats, f):
         classify_damping(fx, x, p, modes)  # ElastoBacklash's damping piece, stale the same way
         count += 1
         rhs(fx, x, p, modes, ref, f)
+    for j in range(G_STICK_M, G_STICK_L + 1):
+        # a slipping body whose speed passed zero, or a stuck one past breakaway
+        if g[j] > 0.0:
+            b = j - G_STICK_M
+            s = modes[M_STICK_M + b]
+            switch_mode(fx, j, x, p, modes, ref, xi)
+            if modes[M_STICK_M + b] != s or s != 0:
+                count += 1
+                rhs(fx, x, p, modes, ref, f)
     if g[G_BB_A] > 0.0 or g[G_BB_B] > 0.0 or g[G_SHIFT] > 0.0 or g[G_SAT] > rtol * p[P_VMAX]:
         if g[G_SHIFT] > 0.0:
             switch_mode(fx, G_SHIFT, x, p, modes, ref, xi)  # flips, re-derives the bang-bang
@@ -203,6 +219,7 @@ def start_segment(fx, k, seg_t, seg_v, seg_s, seg_d, x, p, modes, mem, stats):
     if p[P_CTRL] == CTRL_SAMPLED_PV:
         v0 = _sampled_pv(k, seg_t, v0, seg_d[k], x, p, mem)
         s = 0.0
+    break_away(fx, x, p, modes, v0)
     closed = _closed(p)
     if closed and p[P_SHIFT] > 0.0 and p[P_COMP] != COMP_THESIS:
         modes[M_SHIFT] = direction_of_segment(k, seg_t, seg_v, seg_s, modes[M_SHIFT])
@@ -245,7 +262,7 @@ def finish(fx, x, stats):
 
 # ---- the model's contract (solver.model.NAMES), less ``args``: the generated module's
 n_state, n_modes, n_guards, n_out = N_STATE, N_MODES, N_GUARDS, N_OUT
-n_mem, n_stats, n_watch = N_MEM, N_MODEL_STATS, 3
+n_mem, n_stats, n_watch = N_MEM, N_MODEL_STATS, 5
 feedback = feedback_states
 region = linear_region
 jacobian_rows = quadrature_rows

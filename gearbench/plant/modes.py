@@ -10,6 +10,8 @@ The right-hand side is smooth inside a mode; it changes character when
 * the set-point shift flips (the motor speed crosses zero; thesis compensator
   only: the set-point-direction compensator switches at the profile's corners,
   in the model's update at each segment's start, ``model.start_segment``),
+* a body with stick-slip friction comes to rest or breaks away
+  (``friction.py``),
 * a continuous law (P, PI, PID) reaches or leaves the amplifier's limit: a
   kink, not a jump, but the Jacobian changes there, and a step straddling it
   with the Jacobian of the other side is a Rosenbrock step with a wrong
@@ -36,9 +38,11 @@ from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_P, CTRL_PI, CT
                       G_BB_A, G_BB_B, G_ENTER_NEG, G_ENTER_POS, G_KINK, G_LEAVE, G_SAT, G_SHIFT, M_BB, M_CONTACT,
                       M_DAMP, M_SAT, M_SHIFT, LAW_ELASTO, LAW_LINEAR, N_GUARDS, P_BAND, P_COMP, P_SPEED_EPS,
                       P_CTRL, P_DMESH, P_H, P_HAS_SHAFT, P_KMESH, P_LAW, P_N, P_SHIFT, P_VMAX, X_WL,
-                      X_WM, X_WP, S_IMPACTS, N_SOLVER_STATS)
+                      X_WM, X_WP, S_IMPACTS, N_SOLVER_STATS, G_STICK_L, G_STICK_M, M_STICK_M, P_STICK_L,
+                      P_STICK_M)
+from . import friction
 from .contact import damping_limited, entry_guard, kink_guard, unclipped
-from .rhs import demanded_input, linear_region, load_angle, mesh_seen, rhs
+from .rhs import demanded_input, free_torques, linear_region, load_angle, mesh_seen, rhs
 
 INACTIVE = -1.0
 REACH_MARGIN = 1.00001
@@ -71,6 +75,10 @@ def guards(fx, x, p, modes, ref, g):
         g[G_LEAVE] = -cm * unclipped(delta, dd, h, k, d, cm)
         if p[P_LAW] == LAW_ELASTO:
             g[G_KINK] = kink_guard(delta, dd, h, k, d, cm, modes[M_DAMP] > 0)
+    if p[P_STICK_M] > 0.0 or p[P_STICK_L] > 0.0:
+        t0, t1 = free_torques(fx, x, p, modes, ref)[1:3]
+        g[G_STICK_M] = friction.guard(fx, x, p, modes, 0, t0)
+        g[G_STICK_L] = friction.guard(fx, x, p, modes, 1, t1)
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         return
@@ -197,14 +205,42 @@ def classify(fx, x, p, modes, ref):
     else:
         modes[M_SHIFT] = 0  # no direction until the set point first moves
     classify_controller(fx, x, p, modes, ref)
+    classify_friction(fx, x, p, modes, ref)
+
+
+@nb.njit(_nrt=False)
+def classify_friction(fx, x, p, modes, ref):
+    """Set the stick-slip modes from the state (``friction.classify``): a body
+    at rest sticks unless the torque on it is past its breakaway level."""
+    for b in range(2):
+        t = free_torques(fx, x, p, modes, ref)[1 + b]
+        friction.classify(fx, x, p, modes, b, t)
+
+
+@nb.njit(_nrt=False)
+def break_away(fx, x, p, modes, ref):
+    """Where the input jumps (a segment's start), a stuck body whose torque is
+    now past its breakaway level slips: a guard already past zero never fires.
+    Returns how many broke away."""
+    count = 0
+    for b in range(2):
+        if friction.present(p, b) and modes[M_STICK_M + b] == 0:
+            t = free_torques(fx, x, p, modes, ref)[1 + b]
+            friction.settle(fx, x, p, modes, b, t)
+            count += modes[M_STICK_M + b] != 0
+    return count
 
 
 @nb.njit(_nrt=False)
 def apply_event(fx, which, x, p, modes, ref, f, atol, stats):
     """Switch the modes for the guard ``which`` that just fired; count a
-    contact onset the solver resolves as an impact (``impact``)."""
+    contact onset the solver resolves as an impact (``impact``).  A switch can
+    make a torque jump (Dubowsky's damper at a contact onset): a stuck body it
+    pushes past breakaway slips from here, not a step later."""
     if switch_mode(fx, which, x, p, modes, ref, f):
         stats[S_IMPACTS - N_SOLVER_STATS] += impact(fx, x, p, modes, atol)
+    if p[P_STICK_M] > 0.0 or p[P_STICK_L] > 0.0:
+        break_away(fx, x, p, modes, ref)
 
 
 @nb.njit(_nrt=False)
@@ -247,6 +283,18 @@ def switch_mode(fx, which, x, p, modes, ref, f):
         return 0
     if which == G_KINK:
         modes[M_DAMP] = 1 - modes[M_DAMP]
+        return 0
+    if which == G_STICK_M or which == G_STICK_L:
+        # a slipping body came to rest: held exactly at 0 (then it sticks, or slips back
+        # if the torque on it is past breakaway); a stuck one breaks away, in the direction
+        # of the torque (the guard says it reached breakaway: the root may land a hair short)
+        b = which - G_STICK_M
+        t = free_torques(fx, x, p, modes, ref)[1 + b]
+        if modes[M_STICK_M + b] == 0:
+            modes[M_STICK_M + b] = 1 if t >= 0.0 else -1
+        else:
+            friction.stop(x, p, b)
+            friction.settle(fx, x, p, modes, b, free_torques(fx, x, p, modes, ref)[1 + b])
         return 0
     if which == G_BB_A:
         if modes[M_BB] == 0:

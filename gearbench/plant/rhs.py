@@ -35,6 +35,7 @@ from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, 
                       P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
                       X_ZD, X_ZI, N_DYN, N_STATE, P_FRIC_EPS_M, P_FRIC_EPS_L, P_PWL)
 from .contact import engaged_torque
+from .friction import net_torque
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -98,51 +99,71 @@ def demanded_input(fx, x, p, modes, ref):
     return u
 
 
-@nb.njit(_nrt=False)
-def rhs(fx, x, p, modes, ref, out):
-    """Write dx/dt into ``out`` for state ``x`` and set point (or input) ``ref``."""
+@nb.njit(inline="always", _nrt=False)
+def free_torques(fx, x, p, modes, ref):
+    """``(u, t0, t1, tp)``: the applied input, and the torques (N m) on the
+    rotor's body and on the load's (``plant/friction.py``) from everything but
+    their stick-slip friction, and on the pinion between a shaft and the mesh.
+
+    The rotor's body is the rotor (with the pinion on a rigid shaft, and the
+    load too on a rigid gear: its torques then reflected, ``/N``); the load's
+    is the output shaft, or on a rigid gear with a shaft the pinion carrying it."""
     n = p[P_N]
     u = applied_input(fx, x, p, modes, ref)
     wm = x[X_WM]
     if p[P_TORQUE_IN] > 0.0:
-        out[X_I] = 0.0
         tm = p[P_DRIVE_GAIN] * u
     else:
-        out[X_I] = (u - p[P_R] * x[X_I] - p[P_KE] * wm) / p[P_L]
         tm = p[P_KT] * x[X_I]
     tm += fx.motor(p, x[X_THM], wm, p[P_FRIC_EPS_M]) - p[P_BM] * wm
     shaft = p[P_HAS_SHAFT] > 0.0
-    out[X_THM] = wm
-    if shaft:
-        wp = x[X_WP]
-        ts = p[P_KS] * x[X_PHI] + p[P_DS] * (wm - wp)
-        out[X_WM] = (tm - ts) / p[P_JM]
-        out[X_PHI] = wm - wp
-    else:
-        wp = wm
-        ts = tm
-        out[X_PHI] = 0.0
-        out[X_WP] = 0.0
+    ts = p[P_KS] * x[X_PHI] + p[P_DS] * (wm - x[X_WP]) if shaft else tm
     if p[P_RIGID] > 0.0:
         # the load rides on the pinion: one body, reflected to the pinion
-        wl = wp / n
+        wl = pinion_speed(x, p) / n
         t_load = fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L]) - p[P_BL] * wl
-        acc = (ts + t_load / n) / ((p[P_JP] if shaft else p[P_JM]) + p[P_JL] / (n * n))
         if shaft:
+            return u, tm - ts, ts + t_load / n, 0.0
+        return u, ts + t_load / n, 0.0, 0.0
+    t_mesh = mesh_torque(fx, x, p, modes)
+    wl = x[X_WL]
+    t1 = t_mesh - p[P_BL] * wl + fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L])
+    if shaft:
+        return u, tm - ts, t1, ts - t_mesh / n
+    return u, tm - t_mesh / n, t1, 0.0
+
+
+@nb.njit(_nrt=False)
+def rhs(fx, x, p, modes, ref, out):
+    """Write dx/dt into ``out`` for state ``x`` and set point (or input) ``ref``."""
+    n = p[P_N]
+    u, t0, t1, tp = free_torques(fx, x, p, modes, ref)
+    wm = x[X_WM]
+    if p[P_TORQUE_IN] > 0.0:
+        out[X_I] = 0.0
+    else:
+        out[X_I] = (u - p[P_R] * x[X_I] - p[P_KE] * wm) / p[P_L]
+    out[X_THM] = wm
+    shaft = p[P_HAS_SHAFT] > 0.0
+    wp = pinion_speed(x, p)
+    out[X_PHI] = wm - wp if shaft else 0.0
+    if p[P_RIGID] > 0.0:
+        jl = p[P_JL] / (n * n)
+        if shaft:
+            out[X_WM] = net_torque(fx, p, modes, 0, t0, wm) / p[P_JM]
+            acc = net_torque(fx, p, modes, 1, t1, wp) / (p[P_JP] + jl)
             out[X_WP] = acc
         else:
+            acc = net_torque(fx, p, modes, 0, t0, wm) / (p[P_JM] + jl)
             out[X_WM] = acc
+            out[X_WP] = 0.0
         out[X_DELTA] = 0.0
         out[X_WL] = acc / n
     else:
-        t_mesh = mesh_torque(fx, x, p, modes)
-        if shaft:
-            out[X_WP] = (ts - t_mesh / n) / p[P_JP]
-        else:
-            out[X_WM] = (tm - t_mesh / n) / p[P_JM]
-        wl = x[X_WL]
-        out[X_DELTA] = wp / n - wl
-        out[X_WL] = (t_mesh - p[P_BL] * wl + fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L])) / p[P_JL]
+        out[X_WM] = net_torque(fx, p, modes, 0, t0, wm) / p[P_JM]
+        out[X_WP] = tp / p[P_JP] if shaft else 0.0
+        out[X_DELTA] = wp / n - x[X_WL]
+        out[X_WL] = net_torque(fx, p, modes, 1, t1, x[X_WL]) / p[P_JL]
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         # `ref` is the input itself (or the held sampled command): no error to score here

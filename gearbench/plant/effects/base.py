@@ -30,6 +30,15 @@ and acts in one of three ways:
     of the mesh's relative angle as the contact sees it, at output angle
     ``theta_l`` (rad), and its slope.
 
+  A friction effect at ``"motor"``/``"load"`` may also declare
+  ``friction(p, o, s, w)``, its **stick-slip law**: ``(L, B)``, the size (N m)
+  of the torque opposing slip in direction ``s`` (+1 or -1) at speed ``w``
+  (rad/s), and of the largest torque it holds at rest pushed in direction
+  ``s``, from the same numbers.  An instance then acts by that law, with
+  stick and slip as located events (``plant/friction.py``), unless its values
+  say ``model: regularized`` (its ``term``, smoothed by ``eps``):
+  ``settings`` declares that choice.
+
   It also declares ``piecewise_linear(values)`` (the term is affine in the
   state, so the solver may reuse a Jacobian; the default says no),
   ``linear(values, plant)`` (its stiffness and damping where it is linear,
@@ -84,8 +93,10 @@ class Effect:
     signature: ClassVar[str] = ""
     params: ClassVar[tuple[Param, ...]] = ()
     options: ClassVar[dict[str, tuple[str, ...]]] = {}
+    settings: ClassVar[dict[str, tuple[str, ...]]] = {}  # string choices diagnose does not try; first = default
     defaults: ClassVar[dict[str, Any]] = {}
     term: ClassVar[Any] = None
+    friction: ClassVar[Any] = None  # the stick-slip law, for a friction effect (see the module docstring)
     places: ClassVar[tuple[str, ...]] = ()
     slots: ClassVar[tuple[str, ...]] = ()  # what the term reads at p[o], p[o + 1], ... (SI)
     source: ClassVar[str | None] = None  # the file of an effect from outside the package
@@ -146,7 +157,7 @@ class Effect:
         """One line: what it is, where it acts, its parameters with units."""
         doc = (type(self).__doc__ or "").strip().splitlines()[0]
         pars = ", ".join(f"{q.name} ({q.unit})" for q in self.params)
-        opts = ", ".join(f"{k}: {'|'.join(v)}" for k, v in self.options.items())
+        opts = ", ".join(f"{k}: {'|'.join(v)}" for k, v in {**self.options, **self.settings}.items())
         return f"{self.name}: {doc} Acts on the {self.acts_on}; parameters {pars}" + (
             f"; {opts}" if opts else "")
 
@@ -177,6 +188,9 @@ def register(cls):
         bad = [q for q in cls.places if q not in PLACES] or ([] if cls.places else ["(none)"])
         if bad:
             raise ValueError(f"effect {cls.name!r}: places {bad} must be among {PLACES}")
+    if cls.friction is not None and (cls.term is None or set(cls.places) - {"motor", "load"}):
+        raise ValueError(f"effect {cls.name!r}: a stick-slip law (friction) needs a term acting at "
+                         f"'motor' or 'load' only, as its regularized form")
     cls.source = None if inside else path
     REGISTRY[cls.name] = cls()
     REVISION[0] += 1

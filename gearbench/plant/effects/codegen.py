@@ -75,12 +75,26 @@ def _per_revision(fn):
     return wrapper
 
 
+def friction_of(effect):
+    """The stick-slip law of ``effect`` (None when it has none), read from its class."""
+    return type(effect).friction
+
+
+STICK = {"motor": "motor_stick", "load": "load_stick"}  # the blocks a stick-slip law reads
+STICK_FLAG = {"motor": L.P_STICK_M, "load": L.P_STICK_L}
+
+
 @_per_revision
 def blocks() -> dict[tuple[str, str], Block]:
-    """The layout of the effects' slots, keyed by (effect, place)."""
+    """The layout of the effects' slots, keyed by (effect, place); an effect
+    with a stick-slip law has a second block at each of its shafts
+    (``motor_stick``, ``load_stick``), read by that law."""
     out, offset = {}, L.P_SIZE
     for e in compiled_effects():
-        for place in e.places:
+        places = list(e.places)
+        if friction_of(e) is not None:
+            places += [STICK[q] for q in e.places]
+        for place in places:
             out[(e.name, place)] = Block(e.name, place, offset, len(e.slots))
             offset += 1 + len(e.slots)
     return out
@@ -92,10 +106,17 @@ def size() -> int:
     return max((b.offset + 1 + b.size for b in blocks().values()), default=L.P_SIZE)
 
 
+def stick_slip(added) -> bool:
+    """Whether an effect of a plant acts by its event-driven stick-slip law
+    (``model: stick_slip``, the default for an effect that has one)."""
+    return friction_of(added.effect) is not None and added.values.get("model", "stick_slip") == "stick_slip"
+
+
 def pack_effects(effects, plant, p) -> bool:
     """Add each compiled effect of ``effects`` to its block of ``p``; two of a
-    kind at one place add their numbers.  Returns whether they all keep the
-    right-hand side piecewise-linear."""
+    kind at one place add their numbers; a stick-slip law's blocks raise its
+    shaft's flag (``layout.P_STICK_M``, ``P_STICK_L``).  Returns whether they
+    all keep the right-hand side piecewise-linear."""
     table = blocks()
     linear = True
     for added in effects:
@@ -106,7 +127,10 @@ def pack_effects(effects, plant, p) -> bool:
         if place not in e.places:
             raise ValueError(f"effect {e.name!r}: compiled() named place {place!r}, which is not among "
                              f"its places {e.places}; return one of them or declare it")
-        b = table[(e.name, place)]
+        stick = stick_slip(added)
+        b = table[(e.name, STICK[place] if stick else place)]
+        if stick:
+            p[STICK_FLAG[place]] = 1.0
         if len(numbers) != b.size:
             raise ValueError(f"effect {e.name!r} gave {len(numbers)} numbers for its {b.size} slots {e.slots}")
         p[b.offset] += 1.0
@@ -121,6 +145,15 @@ def {place}(p, theta, w, eps):
     """Torque of the effects on the {body} at angle theta (rad), speed w (rad/s), N m."""
     t = 0.0
 {lines}    return t
+'''
+_FRICTION = '''
+@nb.njit(inline="always", _nrt=False)
+def {place}_friction(p, s, w):
+    """Stick-slip friction on the {body} slipping in direction s (+1/-1) at speed w (rad/s):
+    its sliding and breakaway levels, N m."""
+    lv = 0.0
+    br = 0.0
+{lines}    return lv, br
 '''
 _VOLTAGE = '''
 @nb.njit(inline="always", _nrt=False)
@@ -168,16 +201,17 @@ def jacobian(t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb)
 '''
 
 
-def term_module(name: str, source_file: str | None):
-    """The module that holds effect ``name``'s term (loading a file first when
-    the effect is not registered) and the term's name there."""
+def term_module(name: str, source_file: str | None, kind: str = "term"):
+    """The module that holds effect ``name``'s ``term`` (or its ``friction``
+    law), loading a file first when the effect is not registered, and the
+    function's name there."""
     effect = registered(name, source_file)
-    term = term_of(effect)
+    fn = getattr(type(effect), kind)
     module = sys.modules[type(effect).__module__]
     for attr, value in vars(module).items():
-        if value is term:
+        if value is fn:
             return module, attr
-    raise ValueError(f"effect {name!r}: its term must be a function defined at the top of its module "
+    raise ValueError(f"effect {name!r}: its {kind} must be a function defined at the top of its module "
                      f"{module.__name__}")
 
 
@@ -205,8 +239,17 @@ def source() -> str:
         return "".join(f"    if p[{b.offset}] != 0.0:\n        "
                        f"{call.format(t=names[b.name] + '.' + attrs[b.name], o=b.offset + 1)}\n"
                        for b in table.values() if b.place == place)
+    frictions = {name: term_module(name, REGISTRY[name].source, "friction")[1] for name in names
+                 if friction_of(REGISTRY[name]) is not None}
+
+    def stick_lines(place):
+        return "".join(f"    if p[{b.offset}] != 0.0:\n        a, c = {names[b.name]}.{frictions[b.name]}(p, "
+                       f"{b.offset + 1}, s, w)\n        lv += a\n        br += c\n"
+                       for b in table.values() if b.place == STICK[place])
     body = [_TORQUE.format(place="motor", body="rotor", lines=lines("motor", "t += {t}(p, {o}, theta, w, eps)")),
             _TORQUE.format(place="load", body="output shaft", lines=lines("load", "t += {t}(p, {o}, theta, w, eps)")),
+            _FRICTION.format(place="motor", body="rotor", lines=stick_lines("motor")),
+            _FRICTION.format(place="load", body="output shaft", lines=stick_lines("load")),
             _VOLTAGE.format(lines=lines("voltage", "u = {t}(p, {o}, u)")),
             _MESH.format(lines=lines("mesh", "a, b = {t}(p, {o}, theta)\n        e += a\n        de += b"))]
     return "\n".join(head) + "\n" + "\n".join(body) + f"\nSIZE = {size()}  # length of the parameter vector\n" + _TAIL

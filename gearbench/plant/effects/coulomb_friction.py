@@ -4,11 +4,12 @@
 
 acting on the rotor (``location: motor``) or the output shaft (``load``), or
 at the carriage as a force (``location: carriage``, ``force`` in N).  It sticks
-below ``T_c``: at standstill it holds any torque up to ``T_c``.  The compiled
-path regularises the sign as ``tanh(w / eps)``; ``eps`` is the solver's
-friction speed (``SolverOptions.friction_speed_rel`` times the location's
-typical speed), so the creep it allows while stuck is measured in the tests
-against Modelica's event-driven stick-slip.
+below ``T_c``: at standstill it holds any torque up to ``T_c`` (``T_c-``
+backward).  By default (``model: stick_slip``) stick and slip are modes with
+located events (``plant/friction.py``): a stuck body does not move at all.
+``model: regularized`` smooths the sign as ``tanh(w / eps)`` instead; ``eps``
+is the solver's friction speed (``SolverOptions.friction_speed_rel`` times
+the location's typical speed), and a stuck body creeps.
 """
 import math
 
@@ -28,6 +29,14 @@ def torque(p, o, theta, w, eps):
     return -level * math.tanh(w / eps)
 
 
+@nb.njit(cache=True, inline="always", _nrt=False)
+def stick_slip(p, o, s, w):
+    """Stick-slip law: ``(T_c, T_c)`` forward (``s`` = +1), ``(T_c-, T_c-)``
+    backward, N m: the level while slipping, and the breakaway at rest."""
+    level = p[o] if s > 0 else p[o + 1]
+    return level, level
+
+
 @register
 class CoulombFriction(Effect):
     """Constant-magnitude (Coulomb) friction opposing motion, sticking below it."""
@@ -35,6 +44,7 @@ class CoulombFriction(Effect):
     signature = "sign of the speed"
     acts_on = "motor or load torque"
     options = {"location": LOCATIONS}
+    settings = {"model": ("stick_slip", "regularized")}
     params = (
         Param("torque", "N m (N at the carriage: force)", 0.0, 1e6, torque_scale,
               "friction level (moving forward, or both ways)", carriage="force"),
@@ -43,6 +53,7 @@ class CoulombFriction(Effect):
               carriage="force_negative"),
     )
     term = torque
+    friction = stick_slip
     places = ("motor", "load")
     slots = ("torque forward, N m", "torque backward, N m")
 
@@ -60,8 +71,8 @@ class CoulombFriction(Effect):
         return loc, (tc, tn)
 
     def piecewise_linear(self, values):
-        """Only without friction (levels 0)."""
-        return all(float(values.get(key(values, k), 0.0)) == 0.0 for k in ("torque", "torque_negative"))
+        """Stick-slip: constant in each mode; regularized only without friction (levels 0)."""
+        return values.get("model", "stick_slip") == "stick_slip" or all(float(values.get(key(values, k), 0.0)) == 0.0 for k in ("torque", "torque_negative"))
 
     def steady_drag(self, values, plant):
         loc, tc = at_shaft(values, plant, "torque", 1)

@@ -5,8 +5,10 @@
 ``static_torque`` T_s (N m) >= ``coulomb_torque`` T_c (N m; a T_s below T_c
 acts as T_c), ``stribeck_speed``
 w_s (rad/s); at the carriage: ``static_force``, ``coulomb_force`` (N) and
-``stribeck_speed_m_s`` (m/s).  It sticks below T_s.  The sign is regularised
-as in ``coulomb_friction``.
+``stribeck_speed_m_s`` (m/s).  At rest it holds any torque up to T_s.  By
+default (``model: stick_slip``) stick and slip are modes with located events
+(``plant/friction.py``); ``model: regularized`` smooths the sign as
+``tanh(w / eps)``, as ``coulomb_friction`` does.
 """
 import math
 
@@ -28,6 +30,16 @@ def torque(p, o, theta, w, eps):
     return -(t_c + max(t_s - t_c, 0.0) * math.exp(-abs(w) / w_s)) * math.tanh(w / eps)
 
 
+@nb.njit(cache=True, inline="always", _nrt=False)
+def stick_slip(p, o, s, w):
+    """Stick-slip law, either direction: ``T_c + (T_s - T_c) exp(-|w|/w_s)``
+    while slipping, breakaway ``max(T_s, T_c)`` at rest, N m."""
+    t_s, t_c, w_s = p[o], p[o + 1], p[o + 2]
+    if w_s <= 0.0:
+        return 0.0, 0.0
+    return t_c + max(t_s - t_c, 0.0) * math.exp(-abs(w) / w_s), max(t_s, t_c)
+
+
 def _breakaway_scale(plant, values):
     return 1.5 * torque_scale(plant, values)
 
@@ -43,6 +55,7 @@ class StribeckFriction(Effect):
     signature = "stick and breakaway"
     acts_on = "motor or load torque"
     options = {"location": LOCATIONS}
+    settings = {"model": ("stick_slip", "regularized")}
     params = (
         Param("static_torque", "N m (N at the carriage: static_force)", 0.0, 1e6, _breakaway_scale,
               "breakaway level T_s", carriage="static_force"),
@@ -52,6 +65,7 @@ class StribeckFriction(Effect):
               _stribeck_speed, "speed w_s over which T_s decays to T_c", carriage="stribeck_speed_m_s"),
     )
     term = torque
+    friction = stick_slip
     places = ("motor", "load")
     slots = ("static torque, N m", "Coulomb torque, N m", "Stribeck speed, rad/s")
 
@@ -59,6 +73,8 @@ class StribeckFriction(Effect):
         """Coulomb friction at the sliding level (T_s = T_c)."""
         out = {"location": values.get("location", "load")}
         out[key(values, "torque")] = values[key(values, "coulomb_torque")]
+        if "model" in values:
+            out["model"] = values["model"]
         return "coulomb_friction", out
 
     def compiled(self, values, plant):
