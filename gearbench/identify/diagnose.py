@@ -73,7 +73,7 @@ def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list
     closed-loop replay the compared column is the controller's output, which a
     sensor effect applied after the fact cannot change: those are left out.
     """
-    have = {(e.name, tuple(sorted((k, v) for k, v in e.values.items() if isinstance(v, str))))
+    have = {(e.name, tuple(sorted((k, v) for k, v in e.values.items() if k in e.effect.options)))
             for e in plant.effects}
     signals = list(replay.data.signals)
     resolved = plant.resolved()
