@@ -893,8 +893,8 @@ class FitReport:
     >>> f.to_pandas().round(2)
                                value  stderr
     parameter
-    effects[0].stiffness        2.36    0.01
-    effects[0].rest_angle_deg   1.65    0.12
+    effects[0].stiffness        2.34    0.01
+    effects[0].rest_angle_deg   1.25    0.12
     """
     effect: str
     plant: Plant = field(repr=False)
@@ -975,7 +975,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     >>> import gearbench as gb
     >>> f = gb.fit("experiments/plants/bench_rig.yaml", "experiments/data/bench_rig_hidden.csv", "load_spring")
     >>> f.effect, round(f.error_before, 1), round(f.error_after, 2), f.unit   # RMS of the load angle
-    ('load_spring', 233.9, 19.94, 'deg')
+    ('load_spring', 212.0, 20.21, 'deg')
     """
     from .identify.fit import FitError, Scorer
     where = "fit"

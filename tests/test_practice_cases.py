@@ -5,6 +5,7 @@ data/cases/README.md says it does."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from gearbench.experiment.files import load_plant, plant_from_dict
 from gearbench.identify.compare import comparison
 from gearbench.identify.replay import Replay
 from gearbench.measure.data import read_measurement
+from gearbench.plant.effects import AddedEffect
 
 CASES = ("p01", "p02", "p03", "p04")
 EXPECTED = {"p01": "stribeck_friction", "p02": "coulomb_friction", "p03": "backlash", "p04": "load_spring"}
@@ -62,19 +64,35 @@ def test_case_loads(case):
         assert pair["nominal"] != pytest.approx(pair["true"], rel=0.01)
 
 
-def test_the_true_plant_of_p03_replays_the_independent_record_to_its_noise():
-    """Case p03 has no friction: its true plant (backlash 2 deg as an impact pair) needs nothing
-    gearbench lacks, so gearbench's replay of it, re-initialised every second as ``compare`` does,
-    must match the independent event-driven simulator down to the record's noise on every channel.
-    (Before the replay measured its drift on the difference of the two trajectories, a reset
-    mid-crossing of the clearance moved this right model by 0.35 deg: 38x the noise.)"""
-    truth = yaml.safe_load((DATA / "cases" / "p03" / "truth.yaml").read_text())
-    plant = true_plant(truth, "p03")
-    replay = Replay(read_measurement(DATA / "cases" / "p03" / "data.csv"), window_s=1.0)
+@pytest.mark.parametrize("case", CASES)
+def test_the_true_plant_replays_the_independent_record_to_its_noise(case):
+    """Each case's true plant needs nothing gearbench lacks (an impact-pair backlash,
+    stick-slip friction), so gearbench's replay of it, re-initialised every second as
+    ``compare`` does, matches the independent event-driven simulator down to the record's
+    noise on every channel.  (Before, the replay measured its drift on the difference of the
+    two trajectories, a reset mid-crossing of the clearance moved p03's right model by
+    0.35 deg: 38x the noise; and before friction stuck by events, p01's true Stribeck
+    friction, regularized, left the motor angle at 2.56x its noise.)"""
+    truth = yaml.safe_load((DATA / "cases" / case / "truth.yaml").read_text())
+    plant = true_plant(truth, case)
+    replay = Replay(read_measurement(DATA / "cases" / case / "data.csv"), window_s=1.0)
     rows = {r["signal"]: r for r in comparison(replay, plant)["signals"]}
     for name, sigma in truth["noise_sigma"].items():
         assert rows[name]["noise_floor"] == pytest.approx(sigma, rel=0.1)
         assert rows[name]["ratio_to_noise"] < 1.05, (name, rows[name])
-    # and without the backlash (the nominal plant) it does not: the missing effect shows
-    nominal = comparison(replay, load_plant(DATA / "cases" / "p03" / "nominal.yaml"))["signals"]
+    # and without the hidden effects (the nominal plant) it does not: the missing effect shows
+    nominal = comparison(replay, load_plant(DATA / "cases" / case / "nominal.yaml"))["signals"]
     assert max(r["ratio_to_noise"] for r in nominal) > 20
+
+
+def test_regularized_friction_does_not_replay_true_stick_slip():
+    """p01's Stribeck friction at the load with the tanh law (model: regularized): the
+    stuck output shaft creeps, and the motor angle misses by 2.56x its noise (measured
+    2026-11-25), where the event-driven law is at 0.96x."""
+    truth = yaml.safe_load((DATA / "cases" / "p01" / "truth.yaml").read_text())
+    plant = true_plant(truth, "p01")
+    smooth = replace(plant, effects=tuple(AddedEffect(e.name, {**e.values, "model": "regularized"})
+                                          for e in plant.effects))
+    replay = Replay(read_measurement(DATA / "cases" / "p01" / "data.csv"), window_s=1.0)
+    rows = {r["signal"]: r["ratio_to_noise"] for r in comparison(replay, smooth)["signals"]}
+    assert rows["motor_angle_deg"] > 2.0, rows

@@ -185,13 +185,16 @@ def test_compare_json_nominal_plant_is_not_white(tmp_path):
     tests = out["residual_tests"]
     assert set(tests) == {"motor_angle_deg", "load_angle_deg", "current_A"}
     for name, t in tests.items():
-        assert t["white"] is False and t["input_independent"] is False, name
+        assert t["white"] is False, name
         assert t["outside_lags"] == list(range(1, 26)) and t["input"] == "voltage_V"
         assert len(t["autocorrelation"]) == 26 and len(t["cross_correlation"]) == 51
         assert t["lags"] == list(range(26)) and t["cross_lags"] == list(range(-25, 26))
         assert t["band"] == pytest.approx(2.5758 / np.sqrt(10001), rel=1e-4)
-        assert t["windows"] == 11 and t["sentence"].startswith(f"{name}: the residual is not white")
-    assert len(out["reinitialised_s"]) == 10
+        assert t["windows"] == 10 and t["sentence"].startswith(f"{name}: the residual is not white")
+    # the current's residual follows the voltage the model misreads (the angles' residuals, stick-slip
+    # records since 2026-11-25, cross the 99 % band at no lag: the nominal model's own motion dominates)
+    assert tests["current_A"]["input_independent"] is False
+    assert len(out["reinitialised_s"]) == 9
     folder = tmp_path / "compare_bench_rig_bench_rig_hidden"
     assert (folder / "residual_tests.png").stat().st_size > 20_000
     md = (folder / "compare.md").read_text()

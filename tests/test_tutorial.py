@@ -20,46 +20,46 @@ def by_signal(comparison) -> dict:
 
 
 def test_compare():
-    """Step 1: load angle 233.9 deg RMS against a noise floor of 0.0099 deg
-    (23 600x), motor current 2.41 A against 0.005 A."""
+    """Step 1: load angle 212.0 deg RMS against a noise floor of 0.0099 deg
+    (21 300x), motor current 2.41 A against 0.005 A."""
     s = by_signal(gb.compare(PLANT, RECORD))
-    assert s["load_angle_deg"]["rms_error"] == pytest.approx(233.9, abs=0.05)
+    assert s["load_angle_deg"]["rms_error"] == pytest.approx(212.0, abs=0.05)
     assert s["load_angle_deg"]["noise_floor"] == pytest.approx(0.0099, abs=5e-5)
-    assert round(s["load_angle_deg"]["ratio_to_noise"], -2) == 23600
+    assert round(s["load_angle_deg"]["ratio_to_noise"], -2) == 21300
     assert s["current_A"]["rms_error"] == pytest.approx(2.41, abs=0.005)
     assert s["current_A"]["noise_floor"] == pytest.approx(0.005, abs=5e-5)
 
 
 def test_diagnose():
-    """Step 2: load_spring first (233.9 -> 19.94 deg; fitted alone 2.36 N m/rad at
-    1.65 deg), then coulomb_friction at the load (-> 0.0099 deg, the noise floor),
+    """Step 2: load_spring first (212.0 -> 20.21 deg; fitted alone 2.34 N m/rad at
+    1.25 deg), then coulomb_friction at the load (-> 0.0099 deg, the noise floor),
     then it stops."""
     d = gb.diagnose(PLANT, RECORD, workers=2)
     ladder = d.diagnosis.ladder
     assert d.verdict == "load_spring"
     assert [(s.effect, s.options.get("location"), s.action) for s in ladder] == [
         ("load_spring", None, "add"), ("coulomb_friction", "load", "add")]
-    assert d.baseline_error == pytest.approx(233.9, abs=0.05)
-    assert ladder[0].error == pytest.approx(19.94, abs=0.005)
-    assert ladder[0].params["stiffness"] == pytest.approx(2.36, abs=0.005)
-    assert ladder[0].params["rest_angle_deg"] == pytest.approx(1.65, abs=0.005)
+    assert d.baseline_error == pytest.approx(212.0, abs=0.05)
+    assert ladder[0].error == pytest.approx(20.21, abs=0.005)
+    assert ladder[0].params["stiffness"] == pytest.approx(2.34, abs=0.005)
+    assert ladder[0].params["rest_angle_deg"] == pytest.approx(1.25, abs=0.005)
     assert ladder[1].error == pytest.approx(0.0099, abs=5e-5)
     assert ladder[1].error <= 1.01 * d.noise_floor
 
 
 def test_fit_then_compare(tmp_path):
     """Steps 3 and 4: the spring, then the friction with --refit: stiffness 2.000 N m/rad,
-    friction 0.9600 N m; compared again, the load angle is at 0.997x its noise floor,
-    the motor angle 1.06x, the current 0.982x.  Without --refit the spring keeps its
-    friction-blind values and the error stops at 7.1 deg."""
+    friction 0.9600 N m; compared again, the load angle is at 1.000x its noise floor,
+    the motor angle 1.71x, the current 0.981x.  Without --refit the spring keeps its
+    friction-blind values and the error stops at 6.7 deg."""
     spring = gb.fit(PLANT, RECORD, "load_spring")
     both = gb.fit(spring.plant, RECORD, "coulomb_friction", options={"location": "load"}, refit=True)
     values = {e.name: e.values for e in both.plant.effects}
     assert values["load_spring"]["stiffness"] == pytest.approx(2.000, abs=5e-4)
     assert values["coulomb_friction"]["torque"] == pytest.approx(0.9600, abs=5e-5)
     s = by_signal(gb.compare(both.plant, RECORD))
-    assert s["load_angle_deg"]["ratio_to_noise"] == pytest.approx(0.997, abs=0.0005)
-    assert s["motor_angle_deg"]["ratio_to_noise"] == pytest.approx(1.06, abs=0.005)
-    assert s["current_A"]["ratio_to_noise"] == pytest.approx(0.982, abs=0.0005)
+    assert s["load_angle_deg"]["ratio_to_noise"] == pytest.approx(1.000, abs=0.0005)
+    assert s["motor_angle_deg"]["ratio_to_noise"] == pytest.approx(1.71, abs=0.005)
+    assert s["current_A"]["ratio_to_noise"] == pytest.approx(0.981, abs=0.0005)
     blind = gb.fit(spring.plant, RECORD, "coulomb_friction", options={"location": "load"})
-    assert by_signal(gb.compare(blind.plant, RECORD))["load_angle_deg"]["rms_error"] == pytest.approx(7.1, abs=0.05)
+    assert by_signal(gb.compare(blind.plant, RECORD))["load_angle_deg"]["rms_error"] == pytest.approx(6.7, abs=0.05)
