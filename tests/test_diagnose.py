@@ -42,9 +42,9 @@ QUICK = {"coulomb_friction (motor)", "sensor_delay"}
 first time, compiling its models), 7 min in all.  Measured on 2 shared cores with stick-slip friction
 generating, each ``case`` timed in turn in one process."""
 QUICK_NULL = {"bench_rig.yaml"}
-"""The plant with nothing hidden that ``make test`` runs: 89 s.  The others are slow (see the report of
-``studies.hidden_effects``; thesis_gear took over 18 min: its stiff mesh, 2.4e7 N m/rad, under 16 s of
-open-loop drive)."""
+"""The plant with nothing hidden that ``make test`` runs: 62-89 s.  The others are slow: bench_rig_rigid
+680 s the first time (compiling its models), leadscrew_apparatus 108 s, emps_bare 43 s, thesis_gear over
+18 min (its stiff mesh, 2.4e7 N m/rad, under 16 s of open-loop drive; the run was stopped there)."""
 STEPS_NOISE = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}
 
 
