@@ -88,6 +88,57 @@ def test_steps_depend_on_the_seed_only(rig):
     assert np.array_equal(a[1], b[1]) and not np.array_equal(a[1], c[1])
 
 
+def holds_of(t, u, min_s=0.1):
+    """``(level, start s, length s)`` of each run of one constant nonzero input lasting >= ``min_s``."""
+    dt = t[1] - t[0]
+    edges = np.flatnonzero(np.diff(u) != 0.0) + 1
+    runs = zip(np.concatenate([[0], edges]), np.concatenate([edges, [len(u)]]))
+    return [(u[a], t[a], (b - a) * dt) for a, b in runs if u[a] != 0.0 and (b - a) * dt >= min_s - 1e-9]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_mixed_excitation_has_the_practice_cases_pieces(rig, seed):
+    t, u = synth.excitation("mixed", rig, seed=seed)
+    vmax = rig.motor.max_voltage
+    assert t[-1] == pytest.approx(16.0) and np.allclose(np.diff(t), 1e-3)
+    assert np.all(u[t < 0.4] == 0.0) and u[-1] == 0.0, "opens and ends at rest"
+    assert np.all(np.abs(u) <= vmax)
+    holds = holds_of(t, u)
+    levels = [lvl / vmax for lvl, _, _ in holds]
+    # steps both ways with pauses: a hold of 20-70 % each way, followed by a rest
+    for sign in (1.0, -1.0):
+        assert any(0.2 <= sign * x <= 0.7 for x in levels)
+        assert any(0.08 <= sign * x <= 0.13 for x in levels), "a low-level step each way"
+    adjacent = [(h1, h2) for h1, h2 in zip(holds, holds[1:]) if abs(h1[1] + h1[2] - h2[1]) < 1e-6]
+    direct = [(h1, h2) for h1, h2 in adjacent if h1[0] * h2[0] < 0.0]
+    assert len(direct) >= 4, "a direct reversal from a step, then the fast reversals"
+    fast = [h for h in holds if h[2] <= 0.4]
+    assert len(fast) == 3 and all(abs(lvl) >= 0.59 * vmax for lvl, _, _ in fast)
+    assert fast[0][0] * fast[1][0] < 0.0 < fast[0][0] * fast[2][0], "three fast steps, reversing"
+    # after them the input varies at every sample: one sine period, then the triangle
+    tail = t > fast[-1][1] + fast[-1][2]
+    moving = tail & (np.abs(np.gradient(u)) > 0.0)
+    assert np.ptp(t[moving]) > 6.0
+    assert 0.25 * vmax <= u[tail].max() and u[tail].min() <= -0.25 * vmax, "a sine both ways"
+    last = np.flatnonzero(u != 0.0)
+    ramp = u[last[-1] - 400:last[-1]]
+    assert np.all(ramp > 0.0) and np.allclose(np.diff(ramp), np.diff(ramp)[0], rtol=1e-6), \
+        "the record ends with a linear ramp down"
+
+
+def test_mixed_excitation_jitters_levels_and_fills_the_duration(rig):
+    a = synth.excitation("mixed", rig, seed=4)
+    b = synth.excitation("mixed", rig, seed=4)
+    c = synth.excitation("mixed", rig, seed=5)
+    assert np.array_equal(a[1], b[1]) and not np.array_equal(a[1], c[1])
+    vmax = rig.motor.max_voltage
+    nominal = {lvl for shape, lvl, _ in synth.MIXED if shape == "hold" and lvl != 0.0}
+    for lvl, _, _ in holds_of(*a):
+        assert any(abs(lvl / vmax / x - 1.0) <= synth.MIXED_JITTER + 1e-9 for x in nominal), lvl / vmax
+    t, u = synth.excitation("mixed", rig, duration_s=15.0, seed=4)
+    assert t[-1] == pytest.approx(15.0) and u[-1] == 0.0 and len(holds_of(t, u)) == len(holds_of(*a))
+
+
 def test_profile_excitation_is_the_voltage_of_a_p_controller(rig):
     t, u = synth.excitation("profile:1", rig, duration_s=4.0)
     assert len(t) == 4001 and np.all(np.abs(u) <= rig.motor.max_voltage)
@@ -239,6 +290,19 @@ def test_cli_writes_data_and_truth(tmp_path):
     again = tmp_path / "e.csv"
     assert CliRunner().invoke(main, args[:-1] + [str(again)]).exit_code == 0
     assert out.read_text() == again.read_text()
+
+
+def test_cli_mixed_excitation_is_written_with_its_pieces(tmp_path):
+    out = tmp_path / "m.csv"
+    res = CliRunner().invoke(main, ["synth", str(RIG), "--excitation", "mixed", "--duration", "15",
+                                    "--seed", "2", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    m = read_measurement(out)
+    assert m.duration_s == pytest.approx(15.0)
+    u = synth.excitation("mixed", load_plant(RIG), duration_s=15.0, seed=2)[1]
+    assert np.allclose(m.input, u, rtol=0, atol=1e-6)  # the CSV keeps 10 significant digits
+    exc = yaml.safe_load((tmp_path / "m.truth.yaml").read_text())["excitation"]
+    assert exc["kind"] == "mixed" and exc["seed"] == 2 and len(exc["segments"]) == len(synth.MIXED)
 
 
 def test_cli_rejects_a_bad_effect_naming_the_key(tmp_path):

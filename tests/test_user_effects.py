@@ -135,7 +135,12 @@ SCRIPT = textwrap.dedent('''
     from gearbench.identify.replay import Replay
     from gearbench.measure.data import write_measurement
     from gearbench.plant.effects import AddedEffect
-    from studies.hidden_effects import record
+    from gearbench.identify.synth import excitation, synthesize
+
+    def record(plant, hidden, seed):  # 3 s of open-loop steps: the user effects show in it
+        t, u = excitation("steps", plant, duration_s=3.0, seed=seed)
+        noise = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}
+        return synthesize(plant, hidden, t, u, noise=noise, seed=seed)
 
     work = Path(sys.argv[1])
     truth, only = json.loads(sys.argv[2]), tuple(json.loads(sys.argv[3]))

@@ -15,7 +15,7 @@ engineer would have measured, in the SPEC's measurement format (section 3):
   noise, so that signal gets none;
 * the record starts at rest with the mesh centred in its clearance.
 
-:func:`excitation` makes the inputs (``steps``, ``profile:N`` or a CSV file)
+:func:`excitation` makes the inputs (``steps``, ``mixed``, ``profile:N`` or a CSV file)
 and :func:`truth_dict` the record of what was hidden, saved beside the data.
 """
 from __future__ import annotations
@@ -145,6 +145,61 @@ def steps(plant: Plant, duration_s: float = 10.0, sample_time_s: float = 1e-3,
     return t, u
 
 
+MIXED = (  # (shape, level, duration s): the practice cases' excitation (data/cases/README.md)
+    ("hold", 0.0, 0.55),                                                   # opening rest
+    ("hold", 0.27, 0.9), ("hold", 0.0, 0.55),                              # a step, a pause
+    ("hold", -0.24, 0.9), ("hold", 0.48, 0.64), ("hold", -0.57, 0.57),     # the other way, direct reversals
+    ("hold", 0.0, 0.55),
+    ("hold", 0.11, 0.72), ("hold", 0.0, 0.35), ("hold", -0.11, 0.72),      # low-level steps
+    ("hold", 0.0, 0.55),
+    ("hold", 0.7, 0.3), ("hold", -0.7, 0.3), ("hold", 0.7, 0.3),          # fast reversals
+    ("hold", 0.0, 0.5),
+    ("sine", 0.3, 4.7), ("hold", 0.0, 0.5),                                # one slow sine period
+    ("triangle", 0.27, 2.0), ("hold", 0.0, 0.5),                           # a triangle ramp
+)
+"""The ``mixed`` excitation, segment by segment: ``hold`` keeps ``level`` (a
+fraction of :func:`input_scale`) for the duration; ``sine`` is one period
+``level sin(2 pi t / duration)``; ``triangle`` rises linearly from 0 to
+``level`` over half the duration and back.  Its nominal length is 16.1 s."""
+
+MIXED_JITTER = 0.15
+"""Every level and duration of :data:`MIXED` is multiplied by ``U(1 -+ MIXED_JITTER)``."""
+
+
+def mixed(plant: Plant, duration_s: float = 16.0, sample_time_s: float = 1e-3,
+          seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The open-loop input of the practice cases (data/cases): :data:`MIXED`, jittered.
+
+    Steps both ways with pauses and direct reversals, low-level steps (11 %
+    of the limit: below the break-away of typical friction, so stick shows),
+    three fast steps reversing (0.3 s each), one slow sine period (4.7 s)
+    and a triangle ramp (2 s), each followed by a rest.  Each level
+    (fraction of :func:`input_scale`) and each duration is jittered by
+    ``+-MIXED_JITTER`` (uniform, from ``seed``); the durations are then
+    scaled together so that the schedule fills ``duration_s`` (16.1 s
+    nominally: a 15 s record runs it 7 % faster).  Returns ``(time_s,
+    input)``, input in the plant's input unit, 0 at ``t = 0``.
+    """
+    t = _grid(duration_s, sample_time_s)
+    rng = np.random.default_rng(seed)
+    jitter = rng.uniform(1.0 - MIXED_JITTER, 1.0 + MIXED_JITTER, size=(len(MIXED), 2))
+    levels = np.array([lvl for _, lvl, _ in MIXED]) * jitter[:, 0] * input_scale(plant)
+    spans = np.array([d for _, _, d in MIXED]) * jitter[:, 1]
+    ends = np.cumsum(spans) * (t[-1] + sample_time_s) / spans.sum()  # the last rest reaches the end
+    starts = np.concatenate([[0.0], ends[:-1]])
+    u = np.zeros_like(t)
+    for (shape, _, _), level, a, b in zip(MIXED, levels, starts, ends):
+        on = (t >= a - 1e-12) & (t < b - 1e-12)
+        x = (t[on] - a) / (b - a)                # 0 -> 1 through the segment
+        if shape == "hold":
+            u[on] = level
+        elif shape == "sine":
+            u[on] = level * np.sin(2.0 * np.pi * x)
+        else:
+            u[on] = level * (1.0 - np.abs(2.0 * x - 1.0))
+    return t, u
+
+
 def profile_controller(plant: Plant) -> Controller:
     """A well-behaved feedback law on the motor-side angle for ``profile:N``.
 
@@ -222,7 +277,7 @@ def read_input_file(path: str | Path, plant: Plant | None = None) -> tuple[np.nd
     the file, the column and the first bad row (data row 1 is file line 2)."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"excitation file '{path}' does not exist (give steps, profile:N or a CSV "
+        raise ValueError(f"excitation file '{path}' does not exist (give steps, mixed, profile:N or a CSV "
                          "with time_s and one input column)")
     try:
         df = pd.read_csv(path, skipinitialspace=True)
@@ -268,17 +323,22 @@ def excitation(kind: str, plant: Plant, duration_s: float | None = None, sample_
     kind:
 
     * ``steps``: :func:`steps`, levels in both directions with rests;
+    * ``mixed``: :func:`mixed`, the practice cases' excitation (steps, direct
+      and fast reversals, low levels, a slow sine and a triangle ramp);
     * ``profile:N`` (N = 1, 2, 3): :func:`profile_input`, the input a feedback
       law applied following thesis profile N;
     * anything else: a CSV file with ``time_s`` and one input column
       (:func:`read_input_file`), its own sample times.
 
-    duration_s: record length, s (default 10 s; for a file its own length,
-    or the first ``duration_s`` of it when given); sample_time_s: sample
-    interval, s (not used for a file); seed: the random draws of ``steps``.
+    duration_s: record length, s (default 10 s, 16 s for ``mixed``; for a file
+    its own length, or the first ``duration_s`` of it when given);
+    sample_time_s: sample interval, s (not used for a file); seed: the random
+    draws of ``steps`` and ``mixed``.
     """
     if kind == "steps":
         return steps(plant, 10.0 if duration_s is None else duration_s, sample_time_s, seed)
+    if kind == "mixed":
+        return mixed(plant, 16.0 if duration_s is None else duration_s, sample_time_s, seed)
     if kind.startswith("profile:"):
         num = kind.split(":", 1)[1].strip()
         if num not in ("1", "2", "3"):
