@@ -30,7 +30,9 @@ from .replay import Replay, ReplayError
 
 SPAN = (0.01, 10.0)     # multiples of the typical value scanned
 POINTS_PER_PARAM = 8    # Sobol points per scanned parameter (rounded up to a power of two)
-LOCAL_STARTS = 1        # local fits from the best points
+LOCAL_STARTS = 2        # local fits from the best points: from the best one alone, the cogging
+                        # example's fit (tests/test_user_effects.py) stopped on xtol beside its
+                        # optimum at 18.7x the noise floor; the second best reached 0.97x
 SEED = 20260416         # the scramble's seed: fixed, so a diagnosis is reproducible
 
 
