@@ -124,7 +124,7 @@ def test_diagnose_finds_the_hidden_effects(case):
     the final model holds every hidden effect with each parameter within 15 % of the truth, and
     the ladder ends within 1.2x the noise floor.  p01 and p02 are true stick-slip records: they
     were expected to need gearbench's event-driven stick-slip friction; measured with the
-    regularised law they pass too.  (2 cores: p01 61 s, p02 154 s, p03 115 s)"""
+    regularised law they pass too.  (2 cores: p01 89 s, p02 201 s, p03 181 s)"""
     from gearbench.identify.diagnose import diagnose
 
     folder = DATA / "cases" / case
