@@ -136,7 +136,7 @@ def test_a_stribeck_fit_never_ends_below_its_sliding_level():
 def test_coulomb_friction_with_a_bias_on_one_shaft_is_resolved():
     """The documented limit of the greedy ladder (tests/test_diagnose.py): Coulomb friction
     0.6 N m at the load with a bias torque 0.4 N m.  The ladder ends with both, each within
-    15 %, and within 1.2x the noise floor: a joint refit of the pair at the first rung.  (18 s on 2 cores)"""
+    15 %, and within 1.2x the noise floor: a joint refit of the pair at the first rung.  (56 s on 2 cores with stick-slip friction)"""
     plant = _rig()
     hidden = [AddedEffect("coulomb_friction", {"location": "load", "torque": 0.6}),
               AddedEffect("bias_torque", {"torque": 0.4})]

@@ -123,8 +123,8 @@ def test_diagnose_finds_the_hidden_effects(case):
     """diagnose over the whole library on the practice case: the verdict is the expected one,
     the final model holds every hidden effect with each parameter within 15 % of the truth, and
     the ladder ends within 1.2x the noise floor.  p01 and p02 are true stick-slip records: they
-    were expected to need gearbench's event-driven stick-slip friction; measured with the
-    regularised law they pass too.  (2 cores: p01 89 s, p02 201 s, p03 181 s)"""
+    pass with the event-driven stick-slip friction (and passed with the regularised law before
+    it).  (2 cores, stick-slip: p01 86 s, p02 122 s, p03 624 s)"""
     from gearbench.identify.diagnose import diagnose
 
     folder = DATA / "cases" / case
