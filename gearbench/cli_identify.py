@@ -176,7 +176,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
 @click.option("--json", "as_json", is_flag=True,
               help="Print the SPEC's JSON object on stdout: baseline_error, noise_floor, candidates (best first "
                    "by BIC: the Bayesian information criterion n ln(RSS/n) + k ln n of the noise-weighted residuals "
-                   "of every compared signal, lowest first, failed fits last with error and bic null, a status "
+                   "of every compared signal, lowest first; the places of one effect (location, signal) share the "
+                   "slots their BICs earn, ordered by the evidence of each signal, sum over signals of "
+                   "n_s ln(RSS_s/n_s); failed fits last with error and bic null, a status "
                    "and a message), verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
                    "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
                    "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
@@ -186,8 +188,12 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     """Which physical effect is the model missing?
 
     Fits every effect of the library that the plant lacks, in every place it
-    can act, ranks them by the Bayesian information criterion (which charges
-    for each added parameter, so an effect that does not help never wins),
+    can act (a space-filling scan of its parameters, then local least squares),
+    ranks them by the Bayesian information criterion (which charges
+    for each added parameter, so an effect that does not help never wins;
+    the places of one effect by the evidence of every signal),
+    refits the best effects jointly in pairs (a pair that beats the best single
+    takes two rungs),
     explains the evidence in words, and climbs the ladder: add the best,
     refit, diagnose again, until nothing more pays.  The verdict is null when
     the model already explains the record down to its noise, or when no

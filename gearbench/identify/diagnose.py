@@ -2,14 +2,32 @@
 
 For every effect of the registry that the plant does not have and that can
 act on it (``Effect.applicable``), in every place it can act (``location``,
-``signal``), fit its parameters (with any free plant parameters) and score
-the fit by the Bayesian information criterion of the noise-weighted
-residuals, ``BIC = n ln(RSS/n) + k ln n``, which charges ``ln n`` per added
-parameter: an effect that does not explain more than noise would never wins.
+``signal``), fit its parameters (with any free plant parameters: a
+space-filling scan of its parameters picks where the local least squares
+starts, ``search.py``) and score the fit by the Bayesian information
+criterion of the noise-weighted residuals, ``BIC = n ln(RSS/n) + k ln n``,
+which charges ``ln n`` per added parameter: an effect that does not explain
+more than noise would never wins.  The places of one effect compete on the
+evidence of every signal instead (``evidence.signal_evidence``,
+``sum_s n_s ln(RSS_s/n_s)``): they keep the slots their BICs earn, best
+evidence first, so a location one signal clearly contradicts is not chosen
+because another signal's larger misfit dominates the pooled RSS.
 The best one is the verdict when it lowers the BIC by more than
 ``MIN_BIC_DROP`` (10: "very strong" evidence, Kass & Raftery 1995) and the
 error by more than ``MIN_ERROR_DROP``; ``None`` when the model already sits
 at the noise floor, or when no candidate explains the residual.
+
+Confounded pairs (Coulomb friction + a bias, a spring + a bias): each alone
+explains part of the other's residual, so the best single candidate can be a
+third effect that mimics both.  When the best single leaves more than noise
+and the ladder has room for two rungs, the ``PAIR_TOP`` best candidates are
+refitted in pairs jointly (the best place of each of the ``PAIR_TOP`` best effects,
+from the best of their single fits and a scan of both effects' parameters; ``k`` counts both
+effects' parameters).  The pair of lowest BIC is taken when it beats both the
+current model and the best single candidate by the criterion that adds an
+effect (``_accepts``); it then takes two rungs, each with its explanation:
+first its member that ranked higher alone (its single fit), then the other
+with the joint fit.  Otherwise the best single is added, as before.
 
 The ladder repeats: add the verdict with its fitted parameters, diagnose
 again, until nothing more pays.  It steps both ways: after each rung every
@@ -24,19 +42,21 @@ from dataclasses import dataclass, field, replace
 
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
-from .evidence import explain
+from .evidence import explain, signal_evidence
 from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, set_values
 from .replay import Replay, ReplayError
+from . import search
 from ..workers import process_pool, worker_count
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
-           "lowest first; candidates whose fit failed last")
+           "lowest first; the places of one effect (location, signal) share the slots their BICs earn, in the "
+           "order of the evidence of each signal, sum over signals of n_s ln(RSS_s/n_s); "
+           "candidates whose fit failed last")
 MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
 AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is explained
 JOINT_TOP = 3              # candidates refitted jointly with the effects already added
-GRID = (0.03, 0.1, 0.3, 1.0, 3.0)  # multiples of a parameter's typical value tried before fitting
-                                   # (both signs when its bounds allow a negative value)
+PAIR_TOP = 6               # effects whose best places are refitted jointly in pairs (15 pairs at most)
 
 
 @dataclass
@@ -123,8 +143,10 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     of the plant's effects numbered in ``refit``, jointly) to the record.
 
     Parameters the data give directly (``Effect.estimate``: encoder counts) are
-    read, the rest fitted: a scan of the first one over ``GRID`` times its
-    typical value picks the basin, bounded least squares does the rest.
+    read, the rest fitted: a space-filling scan of the candidate's own
+    parameters (``search``) picks the basin, bounded least squares does the
+    rest; with ``start`` given (a user's values, or a previous fit's) the local
+    fit starts there without a scan.
     """
     eff = REGISTRY[cand.name]
     values = dict(start) if start is not None else _start_values(plant, cand)
@@ -132,7 +154,8 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
         est = eff.estimate(values, replay.data.signals, plant)
         values.update(est or {})
         with_it = plant.with_effects(AddedEffect(cand.name, values))
-        frees = Free.effect(with_it, len(with_it.effects) - 1) + [Free.plant(with_it, p) for p in free_plant]
+        mine = Free.effect(with_it, len(with_it.effects) - 1)
+        frees = mine + [Free.plant(with_it, p) for p in free_plant]
         for i in refit:
             frees += Free.effect(with_it, i)
         if not frees:
@@ -142,18 +165,10 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
         elif start is not None:
             res = fit(replay, with_it, frees, scorer, max_nfev=max_nfev)
         else:
-            first, costs = frees[0], {}
-            signs = (1.0, -1.0) if first.low < 0.0 else (1.0,)
-            for v in (s * g * first.scale for s in signs for g in GRID):
-                try:
-                    r = scorer.weighted(replay.run(set_values(with_it, [first], [v])))
-                    costs[v] = float(r @ r)
-                except (ReplayError, ValueError):
-                    continue
-            start = None
-            if costs:
-                start = [min(costs, key=costs.get)] + [get_value(with_it, f) for f in frees[1:]]
-            res = fit(replay, with_it, frees, scorer, start=start, max_nfev=max_nfev)
+            points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
+                                      [get_value(with_it, f) for f in frees])
+            res = _best_fit([fit(replay, with_it, frees, scorer, start=list(x), max_nfev=max_nfev)
+                             for x in points])
             res.k += len(est or {})
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
@@ -165,8 +180,96 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     return Tried(cand, res, params, stderr)
 
 
+def _best_fit(results: list[FitResult]) -> FitResult:
+    """The converged fit of lowest RSS (the first, failed, when none converged)."""
+    ok = [r for r in results if r.converged and math.isfinite(r.rss)]
+    return min(ok, key=lambda r: r.rss) if ok else results[0]
+
+
 def _run_candidate(args):
     return try_candidate(*args)
+
+
+@dataclass
+class Pair:
+    """Two candidates fitted jointly: ``first`` the one whose single fit ranked higher."""
+    first: Tried
+    second: Tried
+    result: FitResult | None
+    note: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.result is not None and self.result.converged and math.isfinite(self.result.error)
+
+    def label(self) -> str:
+        return f"{self.first.candidate.label()} + {self.second.candidate.label()}"
+
+    def as_second(self) -> Tried:
+        """The second candidate as a single whose fit is the pair's (for its rung)."""
+        last = len(self.result.plant.effects) - 1
+        e = self.result.plant.effects[last]
+        stderr = {k.split(".", 1)[1]: v for k, v in self.result.stderr.items() if k.startswith(f"effects[{last}].")}
+        return Tried(self.second.candidate, self.result, {k: v for k, v in e.values.items()
+                                                           if not isinstance(v, str)}, stderr)
+
+
+DRY = ("sign of the speed", "stick and breakaway")  # signatures of dry friction
+
+
+def _pairable(a: Tried, b: Tried) -> bool:
+    """Two different effects, neither the other's simpler form in the same place (Stribeck and
+    Coulomb friction at one shaft are rivals, which ``_simplify`` settles, not a pair), and not
+    two dry frictions: where one dry friction sits is the location rule's question, and dry
+    friction on both sides of the clearance is very stiff for the regularised law (on the
+    bench rig, Coulomb friction at the load with Stribeck's at the motor exhausted the step
+    budget of one 3 s replay after 175 s)."""
+    if a.candidate.name == b.candidate.name or all(REGISTRY[t.candidate.name].signature in DRY for t in (a, b)):
+        return False
+    for x, y in ((a, b), (b, a)):
+        simpler = REGISTRY[x.candidate.name].simpler({**x.candidate.options, **x.params})
+        if simpler and simpler[0] == y.candidate.name and y.candidate.options.items() <= simpler[1].items():
+            return False
+    return True
+
+
+def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second: Tried,
+             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
+    """Fit two candidates jointly (with the free plant parameters and the effects numbered in
+    ``refit``); ``k`` counts both.  The local fit starts from the best of their single fits and
+    a space-filling scan of both effects' parameters (``search``): a single fit of one member
+    of a confounded pair is far from its value in the pair (Coulomb friction fitted alone on a
+    record with a spring: 3.5 N m for 0.6)."""
+    n = len(plant.effects)
+    both = plant.with_effects(*(AddedEffect(t.candidate.name, {**t.candidate.options, **t.params})
+                                for t in (first, second)))
+    mine = Free.effect(both, n) + Free.effect(both, n + 1)
+    frees = mine + [Free.plant(both, p) for p in free_plant]
+    for i in refit:
+        frees += Free.effect(both, i)
+    try:
+        points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees])
+        res = _best_fit([fit(replay, both, frees, scorer, start=list(x)) for x in points])
+    except (ReplayError, ValueError) as exc:
+        return Pair(first, second, None, f"could not be simulated: {exc}")
+    return Pair(first, second, res, "" if res.converged else res.message)
+
+
+def _run_pair(args):
+    return try_pair(*args)
+
+
+def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers) -> list[Pair]:
+    """Every pairable pair (:func:`_pairable`) of the best places of the ``PAIR_TOP`` best effects,
+    fitted jointly (the best few candidates are often one effect in several places)."""
+    top = []
+    for t in tried:
+        if t.ok and all(t.candidate.name != u.candidate.name for u in top):
+            top.append(t)
+    top = top[:PAIR_TOP]
+    jobs = [(replay, scorer, plant, a, b, free_plant, refit)
+            for i, a in enumerate(top) for b in top[i + 1:] if _pairable(a, b)]
+    return _map(_run_pair, jobs, workers, None)
 
 
 @dataclass
@@ -237,8 +340,23 @@ class Diagnosis:
         }
 
 
+def _same_effect(tried: list[Tried]) -> dict[str, list[Tried]]:
+    groups: dict[str, list[Tried]] = {}
+    for t in tried:
+        if t.ok and t.candidate.options:
+            groups.setdefault(t.candidate.name, []).append(t)
+    return {k: g for k, g in groups.items() if len(g) > 1 and all(t.result.signals for t in g)}
+
+
 def _rank(tried: list[Tried]) -> list[Tried]:
-    return sorted(tried, key=lambda t: (not t.ok, t.result.bic if t.ok else math.inf))
+    """Best first by :data:`RANKING`: the BIC, and among the places of one effect the evidence
+    of each signal (:func:`signal_evidence`)."""
+    out = sorted(tried, key=lambda t: (not t.ok, t.result.bic if t.ok else math.inf))
+    for group in _same_effect(out).values():
+        slots = sorted(out.index(t) for t in group)
+        for i, t in zip(slots, sorted(group, key=lambda t: signal_evidence(t.result))):
+            out[i] = t
+    return out
 
 
 def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
@@ -247,18 +365,22 @@ def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress)
     jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
             for c in cands]
     jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
+    return _map(_run_candidate, jobs, workers, progress)
+
+
+def _map(fn, jobs, workers, progress):
+    """``fn`` over ``jobs`` in ``workers`` processes (``gearbench.workers``), in order."""
     workers = worker_count(workers, len(jobs))
+    out = []
     if workers > 1:
         with process_pool(workers) as pool:
-            out = []
-            for t in pool.map(_run_candidate, jobs):
+            for t in pool.map(fn, jobs):
                 out.append(t)
                 if progress:
                     progress(t)
-            return out
-    out = []
+        return out
     for j in jobs:
-        out.append(_run_candidate(j))
+        out.append(fn(j))
         if progress:
             progress(out[-1])
     return out
@@ -269,6 +391,27 @@ def _accepts(current: FitResult, new: FitResult) -> bool:
     noise-weighted RMS error of all compared signals by more than MIN_ERROR_DROP."""
     return (current.bic - new.bic > MIN_BIC_DROP
             and new.weighted_rms < (1.0 - MIN_ERROR_DROP) * current.weighted_rms)
+
+
+def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers):
+    """The pair of lowest BIC (:func:`_fit_pairs`) when it beats both the current model and the
+    best single candidate by :func:`_accepts`; None when none does, or when the best single
+    already explains the record down to its noise (nothing left for a pair to resolve)."""
+    if best.result.weighted_rms <= AT_NOISE or current_res.weighted_rms <= AT_NOISE:
+        return None
+    pairs = [p for p in _fit_pairs(replay, scorer, current, tried, free_plant, added, workers) if p.ok]
+    if not pairs:
+        return None
+    pair = min(pairs, key=lambda p: p.result.bic)
+    return pair if _accepts(current_res, pair.result) and _accepts(best.result, pair.result) else None
+
+
+def _pair_text(pair: Pair, best: Tried) -> str:
+    """Why two rungs at once: the pair against the best single candidate."""
+    r, b = pair.result, best.result
+    return (f"Added with the next rung as a pair: fitted jointly, {pair.label()} take the weighted RMS to "
+            f"{r.weighted_rms:.4g}x the noise floors (BIC {r.bic - b.bic:+.1f} against the best single candidate, "
+            f"{best.candidate.label()}, at {b.weighted_rms:.4g}x): each alone is confounded with the other.")
 
 
 def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant) -> tuple[FitResult, list]:
@@ -405,8 +548,23 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                           f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
                           f"{unit}) and {gain}; the missing physics is not in the library")
             break
-        text = explain(replay, scorer, current_res, best)
-        fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
+        pair = _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers) \
+            if len(ladder) + 2 <= max_steps else None
+        if pair is None:
+            text = explain(replay, scorer, current_res, best, tried)
+            fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
+        else:
+            first, second = pair.first, pair.as_second()
+            ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
+                               first.result.error, scorer.relative_pct(first.result.sim), first.result.bic,
+                               *_model(first.result.plant, free_plant),
+                               explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best)))
+            rungs.append(len(ladder) - 1)
+            best = second
+            text = explain(replay, scorer, first.result, second) + (
+                f" Fitted jointly with {first.candidate.label()} (the pair's rung before).")
+            fitted, notes = _simplify(replay, scorer, pair.result, added + (len(current.effects),
+                                                                             len(current.effects) + 1), free_plant)
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
                            *_model(fitted.plant, free_plant),

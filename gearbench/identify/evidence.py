@@ -20,8 +20,15 @@ Two views of the residual ``e`` (measured minus simulated):
 
 The correlations are Pearson's, of ``tau`` (or ``e``) with each feature; only
 their size matters, so units cancel.
+
+Where an effect acts (its ``location`` or ``signal``) is said with the evidence of
+each signal (:func:`signal_evidence`, :func:`location_text`): each compared
+signal's noise-weighted RMS under this place and under the others, and the
+per-signal likelihood that ranked them.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -47,6 +54,39 @@ SIGNATURES = {
                         "signal's rate of change"),
     "steps of one count": ("signal", "steps of one encoder count: the residual is the rounding to the count grid"),
 }
+
+
+def signal_evidence(res: FitResult) -> float:
+    """``sum_s n_s ln(RSS_s / n_s)`` over the compared signals ``s``: -2 ln L of a fit whose
+    residuals are Gaussian with a variance of their own in each signal (up to a constant).
+
+    Pooled, one badly fitted signal (a drifting motor angle, thousands of noise floors) sets the
+    RSS and the others hardly count; here a signal that a fit contradicts (its own RSS many
+    times another fit's) weighs by that ratio whatever its size."""
+    return sum(n * math.log(max(rss, 1e-300) / n) for rss, n in res.signals.values())
+
+
+def location_text(best: Tried, tried: list[Tried]) -> str:
+    """Why ``best`` acts where it does: each signal's weighted RMS (x its noise floor) against
+    the same effect's other places, and the evidence (:func:`signal_evidence`) that decides."""
+    rivals = [t for t in tried if t.ok and t is not best and t.candidate.name == best.candidate.name
+              and t.candidate.options and t.result.signals and best.result.signals]
+    if not rivals:
+        return ""
+
+    def per(t):
+        return ", ".join(f"{n} {math.sqrt(r / k):.3g}" for n, (r, k) in t.result.signals.items())
+
+    where = ", ".join(f"{v}" for v in best.candidate.options.values())
+    parts = [f"at {where}: weighted RMS per signal (x noise floor) {per(best)}"]
+    for t in rivals:
+        worse = [n for n, (r, k) in t.result.signals.items() if r > best.result.signals[n][0]]
+        gap = signal_evidence(t.result) - signal_evidence(best.result)
+        parts.append(f"at {', '.join(str(v) for v in t.candidate.options.values())}: {per(t)} "
+                     f"({', '.join(worse) or 'no signal'} worse; evidence of every signal "
+                     f"{'against' if gap > 0 else 'for'} it by {abs(gap):.1f}, pooled BIC "
+                     f"{t.result.bic - best.result.bic:+.1f})")
+    return "the place is chosen on the evidence of every signal, sum n_s ln(RSS_s/n_s): " + "; ".join(parts)
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:
@@ -192,9 +232,10 @@ def signature_text(ev: Evidence, scorer, before, best) -> str:
     return f"its signature is {words}: {how} ({name}) follows {sig} with correlation {c:.2f} ({rank})"
 
 
-def explain(replay, scorer, before, best) -> str:
-    """One paragraph: the effect's signature on the residual before it, the phase the error
-    sits in, and what adding the effect gains."""
+def explain(replay, scorer, before, best, tried=()) -> str:
+    """One paragraph: the effect's signature on the residual before it, where it acts and why
+    (against the same effect's other places among ``tried``), the phase the error sits in, and
+    what adding the effect gains."""
     name = scorer.primary
     unit = replay.data.signal_unit(name) if name in replay.data.signals else replay.data.input_unit
     ev = Evidence(replay, before.plant, before.sim)
@@ -204,6 +245,9 @@ def explain(replay, scorer, before, best) -> str:
     sig = signature_text(ev, scorer, before, best)
     if sig:
         parts.append(sig)
+    where = location_text(best, tried)
+    if where:
+        parts.append(where)
     if ev.position is not None:
         labels = classify_phases(replay.t, ev.position, ev.speed)
         shares = error_shares(labels, r0)

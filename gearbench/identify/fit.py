@@ -8,6 +8,15 @@ residual divided by that column's noise floor, so signals in different units
 weigh by how well they are measured.  ``scipy.optimize.least_squares`` (trust
 region reflective) works on the parameters divided by their scales; standard
 errors come from its Jacobian (:mod:`gearbench.identify.uncertainty`).
+
+An ordering constraint between two parameters of one effect is a change of
+coordinates, not a penalty: the fit moves Stribeck friction's breakaway level as
+its excess over the sliding level, ``x = T_s - T_c >= 0`` (N m; N at the
+carriage), so no fit ends with ``T_s < T_c`` (the effect would silently act as
+Coulomb friction there).  ``Free.above`` names the parameter it is the excess
+over; :func:`get_value` and :func:`set_values` speak those coordinates, the
+fitted values and standard errors are reported in the effect's own
+(``T_s = x + T_c``, the covariance carried through the linear map).
 """
 from __future__ import annotations
 
@@ -34,6 +43,11 @@ PLANT_FIELDS = {  # key path -> (unit, low bound)
 }
 
 
+EXCESS = {("stribeck_friction", "static_torque"): "coulomb_torque"}
+"""(effect, parameter) -> the parameter of the same effect it must not fall below: the fit moves
+the excess (file keys: ``static_force`` over ``coulomb_force`` at the carriage)."""
+
+
 class FitError(ValueError):
     """A fit that cannot be set up (an unknown free key, a missing effect)."""
 
@@ -48,6 +62,7 @@ class Free:
     high: float
     scale: float
     unit: str
+    above: str | None = None  # the fit coordinate is this value minus parameter ``above`` (>= 0)
 
     @property
     def name(self) -> str:
@@ -77,29 +92,58 @@ class Free:
                 continue
             k = file_key(e.values, q.name) if "location" in e.effect.options else q.name
             scale = q.typical(plant, e.values)
-            out.append(Free(k, i, q.low, q.high, scale, q.unit))
+            floor = EXCESS.get((e.name, q.name))
+            above = None if floor is None else (
+                file_key(e.values, floor) if "location" in e.effect.options else floor)
+            out.append(Free(k, i, 0.0 if above else q.low, q.high, scale, q.unit, above))
         return out
 
 
-def get_value(plant: Plant, f: Free) -> float:
+def param_value(plant: Plant, f: Free) -> float:
+    """The parameter's own value (its unit), whatever coordinate the fit moves."""
     if f.index is None:
         section, key = f.key.split(".")
         return float(getattr(getattr(plant, section), key))
     return float(plant.effects[f.index].values[f.key])
 
 
+def get_value(plant: Plant, f: Free) -> float:
+    """The fit coordinate of ``f``: the value, or its excess over ``f.above``."""
+    v = param_value(plant, f)
+    return v - float(plant.effects[f.index].values[f.above]) if f.above else v
+
+
 def set_values(plant: Plant, frees: list[Free], values) -> Plant:
-    """``plant`` with the free parameters set to ``values`` (their units)."""
+    """``plant`` with the free parameters set to ``values`` (fit coordinates, their units).
+
+    An excess is added to its floor parameter's new value (set first), or to its value in
+    the plant when that one is not free."""
     effects = list(plant.effects)
-    for f, v in zip(frees, values):
+    pairs = sorted(zip(frees, values), key=lambda fv: fv[0].above is not None)
+    for f, v in pairs:
         v = float(v)
         if f.index is None:
             section, key = f.key.split(".")
             plant = replace(plant, **{section: replace(getattr(plant, section), **{key: v})})
         else:
             e = effects[f.index]
+            if f.above:
+                v += float(e.values[f.above])
             effects[f.index] = AddedEffect(e.name, {**e.values, f.key: v})
     return replace(plant, effects=tuple(effects))
+
+
+def own_jacobian(jac: np.ndarray, frees: list[Free]) -> np.ndarray:
+    """``dr/dp`` in the parameters' own values from ``jac = dr/du`` in the fit coordinates
+    (unscaled).  For ``u_s = p_s - p_c`` (an excess) and ``u_c = p_c``:
+    ``dr/dp_s = dr/du_s`` and ``dr/dp_c = dr/du_c - dr/du_s``."""
+    out = np.array(jac, dtype=float, copy=True)
+    for s, f in enumerate(frees):
+        if f.above:
+            for c, g in enumerate(frees):
+                if g.index == f.index and g.key == f.above:
+                    out[:, c] -= jac[:, s]
+    return out
 
 
 def primary_signal(replay: Replay) -> str:
@@ -140,6 +184,15 @@ class Scorer:
         res = self.replay.residuals(sim)
         return np.concatenate([res[n] / self.floors[n] for n in objective_signals(self.replay)])
 
+    def per_signal(self, sim: dict) -> dict[str, tuple[float, int]]:
+        """Each weighed column's ``(RSS, n)`` of its residual divided by its noise floor."""
+        res = self.replay.residuals(sim)
+        out = {}
+        for n in objective_signals(self.replay):
+            w = res[n] / self.floors[n]
+            out[n] = (float(w @ w), int(w.size))
+        return out
+
     def error(self, sim: dict) -> float:
         """RMS of the primary column's residual, in its unit."""
         r = self.replay.residuals(sim)[self.primary]
@@ -169,6 +222,7 @@ class FitResult:
     message: str
     nfev: int
     sim: dict | None = None
+    signals: dict = field(default_factory=dict)  # column -> (weighted RSS, n): the evidence of each signal
 
     @property
     def weighted_rms(self) -> float:
@@ -185,7 +239,8 @@ def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0) -> FitRes
     """Score a plant as it is (no fitting)."""
     sim = replay.run(plant)
     w = scorer.weighted(sim)
-    return FitResult(plant, {}, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim)
+    return FitResult(plant, {}, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim,
+                     scorer.per_signal(sim))
 
 
 def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None = None,
@@ -232,12 +287,13 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
                          f"the fitted plant does not simulate: {exc}", res.nfev)
     w = scorer.weighted(sim)
     rss, n, k = float(w @ w), w.size, len(frees)
-    # res.jac is in the scaled coordinates z = x / scale
-    stderr = {f.name: float(e * s) for f, e, s in zip(frees, standard_errors(res.jac, rss, n), sc)}
+    # res.jac is in the scaled coordinates z = u / scale; the errors are of the parameters' own values
+    jac = own_jacobian(res.jac / sc, frees)
+    stderr = {f.name: float(e) for f, e in zip(frees, standard_errors(jac, rss, n))}
     converged = res.status > 0
     msg = res.message if converged else f"did not converge: {res.message}"
     if failures and converged:
         msg += f" ({len(failures)} trial simulation(s) failed on the way)"
-    values = {f.name: float(v) for f, v in zip(frees, res.x * sc)}
+    values = {f.name: param_value(fitted, f) for f in frees}
     return FitResult(fitted if converged else plant, values, stderr, scorer.error(sim), rss, n, k,
-                     converged, msg, res.nfev, sim)
+                     converged, msg, res.nfev, sim, scorer.per_signal(sim))

@@ -1,0 +1,93 @@
+"""A space-filling multi-start: where a candidate's local fit starts.
+
+A replay's cost over an effect's parameters has several basins (a Stribeck curve
+with a high breakaway and a low sliding level against one with both near the
+Coulomb level; a spring's rest angle on either side of the record), so a local
+least-squares fit from the typical values ends in whichever basin it starts in.
+Before the local fit, the cost ``RSS = sum (r / noise floor)^2`` of the replay is
+evaluated at ``n`` points of a scrambled Sobol sequence (``scipy.stats.qmc``,
+fixed seed: the same record gives the same answer) over the candidate's own fit
+coordinates ``u`` (the other free parameters held), each mapped log-uniformly
+over ``[SPAN[0], SPAN[1]] x`` its typical value ``s`` (``Free.scale``):
+
+    |u| = s SPAN[0] (SPAN[1] / SPAN[0])^q,   q in [0, 1),
+
+clipped to its bounds, with both signs (the first half of ``q``'s range negative)
+when its lower bound is negative.  ``n`` is ``POINTS_PER_PARAM`` per parameter,
+rounded up to a power of two (Sobol's balance property), plus the given start
+(the typical values, or a previous fit's).  A point whose replay fails is skipped.
+The local fit then starts from the ``LOCAL_STARTS`` best points.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.stats import qmc
+
+from .fit import Free, Scorer, set_values
+from .replay import Replay, ReplayError
+
+SPAN = (0.01, 10.0)     # multiples of the typical value scanned
+POINTS_PER_PARAM = 8    # Sobol points per scanned parameter (rounded up to a power of two)
+LOCAL_STARTS = 2        # local fits from the best points: from the best one alone, the cogging
+                        # example's fit (tests/test_user_effects.py) stopped on xtol beside its
+                        # optimum at 18.7x the noise floor; the second best reached 0.97x
+SEED = 20260416         # the scramble's seed: fixed, so a diagnosis is reproducible
+
+
+def point_count(k: int) -> int:
+    """Sobol points for ``k`` scanned parameters: ``POINTS_PER_PARAM k`` up to a power of two."""
+    return 1 << max(0, math.ceil(math.log2(max(1, POINTS_PER_PARAM * k))))
+
+
+def to_coordinates(q: np.ndarray, frees: list[Free]) -> np.ndarray:
+    """Map unit-cube points ``q`` (rows, one column per free) to fit coordinates (module docstring)."""
+    out = np.empty_like(q, dtype=float)
+    ratio = SPAN[1] / SPAN[0]
+    for j, f in enumerate(frees):
+        u = q[:, j]
+        sign = np.ones_like(u)
+        if f.low < 0.0:
+            sign = np.where(u < 0.5, -1.0, 1.0)
+            u = np.where(u < 0.5, 2.0 * u, 2.0 * u - 1.0)
+        out[:, j] = np.clip(sign * f.scale * SPAN[0] * ratio ** u, f.low, f.high)
+    return out
+
+
+def sobol_points(frees: list[Free], n: int | None = None, seed: int = SEED) -> np.ndarray:
+    """``n`` (default :func:`point_count`) scrambled Sobol points over ``frees``' coordinates."""
+    n = point_count(len(frees)) if n is None else n
+    q = qmc.Sobol(len(frees), scramble=True, rng=np.random.default_rng(seed)).random(n)
+    return to_coordinates(q, frees)
+
+
+def scan(replay: Replay, scorer: Scorer, plant, frees: list[Free], points) -> list[tuple[float, np.ndarray]]:
+    """``(RSS, point)`` for every point whose replay runs, lowest RSS first."""
+    out = []
+    for x in points:
+        try:
+            r = scorer.weighted(replay.run(set_values(plant, frees, x)))
+        except (ReplayError, ValueError):
+            continue
+        rss = float(r @ r)
+        if math.isfinite(rss):
+            out.append((rss, np.asarray(x, dtype=float)))
+    out.sort(key=lambda c: c[0])
+    return out
+
+
+def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: int, start,
+           n: int | None = None) -> tuple[list[np.ndarray], int]:
+    """Where the local fits start, best first, and the number of replays the scan cost.
+
+    The first ``scanned`` of ``frees`` (the candidate's own parameters) are scanned, the rest
+    stay at ``start`` (fit coordinates of every free), which is itself one of the points."""
+    start = np.asarray(start, dtype=float)
+    pts = sobol_points(frees[:scanned], n) if scanned else np.empty((0, 0))
+    full = np.tile(start, (len(pts), 1))
+    if scanned:
+        full[:, :scanned] = pts
+    points = [start] + list(full)
+    ranked = scan(replay, scorer, plant, frees, points)
+    return [x for _, x in ranked[:LOCAL_STARTS]] or [start], len(points)
