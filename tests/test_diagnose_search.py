@@ -15,7 +15,17 @@ from gearbench.identify.evidence import location_text, signal_evidence
 from gearbench.identify.fit import Free, FitResult, Scorer, fit, get_value, own_jacobian, set_values
 from gearbench.identify.replay import Replay
 from gearbench.plant.effects import AddedEffect
-from studies.hidden_effects import PLANTS, record
+from gearbench.identify.synth import excitation, synthesize
+from studies.hidden_effects import PLANTS
+
+STEPS_NOISE = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}
+
+
+def record(plant, hidden, seed=3, duration=3.0):
+    """Open-loop voltage steps (3 s by default) with ``hidden`` effects: the short records these
+    tests were measured on (the hidden-effect study's own records are 16 s of mixed excitation)."""
+    t, u = excitation("steps", plant, duration_s=duration, seed=seed)
+    return synthesize(plant, hidden, t, u, noise=STEPS_NOISE, seed=seed)
 
 STRIBECK = {"location": "load", "static_torque": 1.2, "coulomb_torque": 0.7, "stribeck_speed": 2.0}
 
