@@ -15,12 +15,9 @@ also compiles its models): ``make test`` runs ``QUICK`` and ``QUICK_NULL``,
 ``make test-all`` (``--runslow``) every case; the durations measured are beside
 them.
 
-Known limit of the greedy ladder (measured, not tested here because it takes
-two minutes): Coulomb friction with a bias torque on the same shaft (0.6 and
-0.4 N m) is first explained by a Stribeck curve with a high breakaway and a
-low sliding level (a local optimum that covers the asymmetry); a bias then no
-longer pays on its own and the ladder ends with Stribeck + viscous friction at
-55x the noise floor instead of the truth at 1x.
+Coulomb friction with a bias torque on the same shaft (0.6 and 0.4 N m), which the
+greedy ladder once took for a Stribeck curve and left at 55x the noise floor, is
+resolved by the pairwise joint refits: ``tests/test_diagnose_search.py`` (slow).
 """
 from __future__ import annotations
 
@@ -44,7 +41,7 @@ generating, each ``case`` timed in turn in one process."""
 QUICK_NULL = {"bench_rig.yaml"}
 """The plant with nothing hidden that ``make test`` runs: 62-89 s.  The others are slow: bench_rig_rigid
 680 s the first time (compiling its models), leadscrew_apparatus 108 s, emps_bare 43 s, the practice
-case p01's nominal plant: see the session note."""
+case p01's nominal plant 91 s (all four with no verdict)."""
 SHORT_CORRELATION = {"stribeck_friction (load)": 0.79, "stribeck_friction (motor)": 0.80,
                      "encoder_quantization": 0.83}
 """Cases whose explanation names the right signature but measures it below 0.9 on the 16 s stick-slip
