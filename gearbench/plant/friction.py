@@ -25,7 +25,8 @@ The switches are located events (guards ``G_STICK_M`` + ``b``): slipping,
 ``|T| - B`` reaching 0 (breakaway, into slip in the direction of ``T``).  At
 a stick the speed is set to exactly 0, so a stuck body does not creep.
 Friction only takes energy out: its power ``-s L w`` is <= 0 while slipping
-(``s w >= 0`` until the speed event) and 0 while stuck.
+(``s w >= 0``, up to the speed's absolute tolerance past 0 where the stop
+event fires) and 0 while stuck.
 """
 import numba as nb
 
