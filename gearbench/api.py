@@ -764,7 +764,7 @@ class DiagnosisReport:
 def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
              controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
              free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
-             workers: int | None = 1) -> DiagnosisReport:
+             workers: int | None = 1, calibrate: bool = True) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -787,6 +787,10 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         Longest ladder.
     workers : int or None
         Processes fitting candidates (None: all cores).
+    calibrate : bool
+        Calibrate the plant's own datasheet values within their tolerances (the plant
+        file's ``{value, tolerance_pct}``, else 20 %) in the baseline and with the best
+        candidates (``gearbench.identify.calibration``); the report's ``calibration``.
 
     Returns
     -------
@@ -824,16 +828,19 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     from .identify.fit import Free
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
-    return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only)))
+    return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only),
+                                     calibrate=bool(calibrate)))
 
 
 def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = None,
                    start: Mapping | None = None, free: Sequence[str] = (), refit: bool = False,
-                   max_evals: int | None = None) -> list:
+                   max_evals: int | None = None, calibrate: bool = True) -> list:
     """Fit effect ``name`` in every place it may act (``options`` fixes some,
     e.g. ``{"location": "load"}``) to the replayed record; one
     ``identify.diagnose.Tried`` per place.  ``start``: starting values of its
-    parameters.  Shared by :func:`fit` and ``gearbench fit``."""
+    parameters; ``calibrate``: the plant's own values within their tolerances too
+    (``identify.calibration.plan``).  Shared by :func:`fit` and ``gearbench fit``."""
+    from .identify import calibration
     from .identify.diagnose import Candidate, _start_values, candidates, try_candidate
     from .identify.fit import Free, Scorer
     from .plant.effects import REGISTRY
@@ -857,7 +864,8 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
         Free.plant(plant, p)  # a bad key is named before any solving
     scorer = Scorer(replay)
     again = tuple(range(len(plant.effects))) if refit else ()
-    return [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free), again,
+    cal = calibration.plan(plant, replay, scorer).frees if calibrate else []
+    return [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free) + tuple(cal), again,
                           start=None if not start else {**c.options, **_start_values(plant, c), **start},
                           max_nfev=max_evals) for c in places]
 
@@ -927,7 +935,7 @@ class FitReport:
 def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, effect: str, *,
         options: Mapping | None = None, start: Mapping | None = None, free: Sequence[str] = (),
         refit: bool = False, controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
-        max_evals: int | None = None) -> FitReport:
+        max_evals: int | None = None, calibrate: bool = True) -> FitReport:
     """Add an effect to a plant and fit its parameters (and ``free`` plant parameters) to a record.
 
     Without a ``location`` in ``options`` every place the effect may act is
@@ -957,6 +965,9 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         Solver relative tolerance.
     max_evals : int, optional
         Most simulations the least-squares fit may spend (default 40 per parameter + 40).
+    calibrate : bool
+        Fit the plant's own datasheet values within their tolerances too (as
+        :func:`diagnose`); they are among ``values`` and ``stderr``.
 
     Returns
     -------
@@ -992,7 +1003,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     _raise(where, problems)
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, where)
     try:
-        tried = fit_candidates(plant, replay, effect, options, start, free, refit, max_evals)
+        tried = fit_candidates(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate))
     except ValueError as exc:
         if type(exc) is not ValueError:  # already one of the project's named errors
             raise

@@ -169,6 +169,10 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
               help="A plant parameter refitted with every candidate and in the baseline (e.g. leadscrew.mass).")
 @click.option("--only", "only", default="", metavar="NAME,NAME",
               help="Try only these effects (a model structure), comma-separated.")
+@click.option("--calibrate/--no-calibrate", default=True, show_default=True,
+              help="Calibrate the plant's own datasheet values within their tolerances (the plant file's "
+                   "'{value, tolerance_pct}', else 20 % on resistance, torque constant, inertias, dampings) in "
+                   "the baseline and with the best candidates; values the record cannot resolve are held.")
 @click.option("--max-steps", type=int, default=4, show_default=True, help="Longest ladder.")
 @click.option("--workers", type=int, default=None, help="Processes (default: all cores).")
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
@@ -183,8 +187,8 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                    "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
                    "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
                    "(e.g. the drive force) in closed loop.")
-def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, max_steps, workers, results,
-             as_json):
+def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, calibrate, max_steps, workers,
+             results, as_json):
     """Which physical effect is the model missing?
 
     Fits every effect of the library that the plant lacks, in every place it
@@ -211,25 +215,38 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         with Progress(console=console, transient=True, disable=as_json) as bar:
             task = bar.add_task("fitting candidates (ladder step 1)", total=n_cand)
             d = run_diagnosis(plant, replay, tuple(free), max_steps, workers,
-                              progress=lambda t: bar.advance(task), only=names)
+                              progress=lambda t: bar.advance(task), only=names, calibrate=calibrate)
     except _errors() as exc:
         _fail(exc)
     j = d.to_json()
     out = _out_dir(results, "diagnose", plant_file, data_file)
-    steps = [{"effect": "baseline", "error": d.baseline_error}] + [
-        {"effect": s.effect, "error": s.error, "action": s.action} for s in d.ladder]
-    fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}")
+    cal = j["calibration"]
+    n_cal = sum(c["status"] == "calibrated" for c in cal.values())
+    steps = [{"effect": "as given" if n_cal else "baseline", "error": d.nominal_error}]
+    if n_cal:
+        steps.append({"effect": f"calibrated ({n_cal})", "error": d.baseline_error, "action": "calibrate"})
+    steps += [{"effect": s.effect, "error": s.error, "action": s.action} for s in d.ladder]
+    fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}",
+                        calibration=cal)
     save_figure_atomic(fig, out / "ladder.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
     md = [f"# diagnose {plant.name} against {data_file.name}", "",
           f"Error: {j['error_metric']}. Baseline {d.baseline_error:.4g} {d.unit}, noise floor {d.noise_floor:.4g} {d.unit}.",
           "", f"Verdict: **{d.verdict}**" if d.verdict else f"Verdict: none. {d.reason}.", "",
           "| step | effect | parameters | error |", "|---|---|---|---|",
-          f"| 0 | (baseline) | | {d.baseline_error:.4g} {d.unit} |"]
+          f"| 0 | (as given) | | {d.nominal_error:.4g} {d.unit} |"]
+    if n_cal:
+        md.append(f"| 0 | (calibrated) | {n_cal} plant values, below | {d.baseline_error:.4g} {d.unit} |")
     md += [f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
            + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |"
            for i, s in enumerate(d.ladder, 1)]
     md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
+    if cal:
+        md += ["", "## Calibration of the plant's own values (the final model)", "",
+               "| value | file | calibrated | standard error | unit | tolerance | |", "|---|---|---|---|---|---|---|"]
+        md += [f"| {k} | {c['nominal']:.6g} | {c['value']:.6g} | "
+               f"{'' if c['stderr'] is None else format(c['stderr'], '.3g')} | {c['unit']} | {c['tolerance_pct']:g} % | "
+               f"{c['status']}{': ' + c['message'] if c.get('message') else ''} |" for k, c in cal.items()]
     write_text_atomic(out / "diagnose.md", "\n".join(md) + "\n")
     if as_json:
         echo_json(j)
@@ -245,13 +262,19 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
     for col in ("step", "effect", "parameters", "error"):
         lad.add_column(col)
-    lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
+    lad.add_row("0", "(as given)", "", f"{d.nominal_error:.4g}")
+    if n_cal:
+        lad.add_row("0", "(calibrated)", ", ".join(f"{k} = {c['value']:.4g}" for k, c in cal.items()
+                                                    if c["status"] == "calibrated"), f"{d.baseline_error:.4g}")
     for i, s in enumerate(d.ladder, 1):
         lad.add_row(str(i), ("taken out: " if s.action == "remove" else "")
                     + s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
                     ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
     stdout().print(lad)
     stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
+    for k, c in cal.items():
+        if c["status"] == "held":
+            stdout().print(f"{k}: {c['message']}", highlight=False)
     if d.verdict:
         stdout().print(f"[bold]verdict: {d.verdict}[/]")
         for i, s in enumerate(d.ladder, 1):
@@ -270,6 +293,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
                    "without a location every allowed place is tried and the best kept.")
 @click.option("--free", "free", multiple=True, metavar="KEY", help="A plant parameter fitted too (e.g. load.inertia).")
 @click.option("--refit", is_flag=True, help="Refit the parameters of the effects the plant already has, too.")
+@click.option("--calibrate/--no-calibrate", default=True, show_default=True,
+              help="Fit the plant's own datasheet values within their tolerances too (as diagnose does).")
 @click.option("--max-evals", type=int, default=None,
               help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
@@ -277,8 +302,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
 @click.option("--json", "as_json", is_flag=True,
               help="Print {converged, effect, values, stderr, error_before, error_after, error_signal, "
                    "output, tried} as one JSON object on stdout instead of the table.")
-def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, max_evals, output,
-        as_json):
+def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, calibrate, max_evals,
+        output, as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors as
@@ -301,7 +326,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
         start = {k: v for k, v in item.items() if k not in opts}
         scorer = Scorer(replay)
         with console.status(f"fitting {name}"):
-            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals)
+            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals, calibrate)
     except _errors() as exc:
         _fail(exc)
     ok = [t for t in tried if t.ok]

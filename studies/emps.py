@@ -350,7 +350,8 @@ def run_ladder(runs: Runs, ctrl: SampledPV, only: tuple[str, ...] = PAPER_STRUCT
     bare = bare_plant()
     replay = Replay(runs.train, ctrl)
     t0 = time.perf_counter()
-    d = diagnose(bare, replay, free_plant=FREE_PLANT, only=only, workers=workers,
+    # the paper's procedure: its own free values (FREE_PLANT), no datasheet calibration beside them
+    d = diagnose(bare, replay, free_plant=FREE_PLANT, only=only, workers=workers, calibrate=False,
                  max_steps=max_steps, progress=progress)
     seconds = time.perf_counter() - t0
     y = np.asarray(runs.train.input, dtype=float)

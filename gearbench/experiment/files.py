@@ -27,7 +27,7 @@ import numpy as np
 import yaml
 
 from ..control.controllers import COMPENSATORS, Controller
-from ..plant.components import Gear, Leadscrew, Load, Motor, Plant, Shaft
+from ..plant.components import FITTABLE, Gear, Leadscrew, Load, Motor, Plant, Shaft
 from ..simulate import METHODS, SolverOptions
 from ..plant.effects import REGISTRY as EFFECTS
 from ..plant.effects.base import AddedEffect
@@ -253,6 +253,37 @@ PLANT_SECTIONS = {"motor": (MOTOR, True), "gear": (GEAR, True), "load": (LOAD, T
                   "shaft": (SHAFT, False), "leadscrew": (LEADSCREW, False)}
 
 
+TOLERANCE = Number("%", low=0.0, low_strict=False, high=100.0)
+
+
+def _split_tolerances(raw: Any, section: str, where: str, fields: Mapping,
+                      problems: list[str]) -> tuple[Any, dict[str, float], set]:
+    """A section's mapping with each ``key: {value: V, tolerance_pct: T}`` read as ``key: V``,
+    ``{"section.key": T}`` and the keys whose mapping was wrong (reported here): a datasheet value and how far (%) the real one may be from it (diagnose
+    and fit calibrate within it; 0 holds the value exactly).  Only the values gearbench can
+    calibrate (``FITTABLE``) take one."""
+    if not isinstance(raw, Mapping):
+        return raw, {}, set()
+    out, tol, bad = dict(raw), {}, set()
+    for key, value in raw.items():
+        if not isinstance(value, Mapping) or key not in fields:
+            continue
+        path = f"{section}.{key}"
+        here = join(where, key)
+        if path not in FITTABLE:
+            problems.append(f"{here}: only a number is allowed here, got {show(value)}; a "
+                            f"{{value, tolerance_pct}} mapping is allowed on {', '.join(sorted(FITTABLE))}")
+            bad.add(key)
+            continue
+        got = check_mapping(value, here, {"value": fields[key], "tolerance_pct": TOLERANCE}, problems,
+                            context="a key of a value with its tolerance")
+        if got is None or set(got) != {"value", "tolerance_pct"}:
+            bad.add(key)
+            continue
+        out[key], tol[path] = got["value"], got["tolerance_pct"]
+    return {k: v for k, v in out.items() if k not in bad}, tol, bad
+
+
 def _check_effect(item: Any, path: str, has_leadscrew: bool, problems: list[str]) -> AddedEffect | None:
     """One ``{type: NAME, <parameters>}`` entry against the effect registry."""
     if not isinstance(item, Mapping) or not isinstance(item.get("type"), str):
@@ -357,6 +388,7 @@ def _build_plant(raw: Any, where: str, default_name: str,
     drive = top.get("drive", "voltage")
     rigid = isinstance(raw.get("gear"), Mapping) and raw["gear"].get("rigid") is True
     values: dict[str, dict | None] = {}
+    tolerances: dict[str, float] = {}
     for key, (fields, required) in PLANT_SECTIONS.items():
         path = join(where, key)
         if key == "motor" and drive != "voltage":
@@ -372,7 +404,10 @@ def _build_plant(raw: Any, where: str, default_name: str,
                 problems.append(f"{path} is missing: expected a mapping with {units}")
             values[key] = None
             continue
-        got = check_mapping(raw[key], path, fields, problems, context=f"a {key} key")
+        section, tol, bad = _split_tolerances(raw[key], key, path, fields, problems)
+        tolerances.update(tol)
+        got = check_mapping(section, path, {k: f for k, f in fields.items() if k not in bad}, problems,
+                            context=f"a {key} key")
         values[key] = got if got is not None and set(got) >= {
             k for k, f in fields.items() if f.required} else None
     if drive == "force" and "leadscrew" not in raw:
@@ -403,7 +438,8 @@ def _build_plant(raw: Any, where: str, default_name: str,
         motor=Motor(**motor), gear=Gear(**gear), load=Load(**values["load"]),
         shaft=Shaft(**shaft) if shaft else None,
         leadscrew=Leadscrew(**values["leadscrew"]) if values["leadscrew"] else None,
-        effects=effects, name=top.get("name", default_name), drive=drive)
+        effects=effects, name=top.get("name", default_name), drive=drive,
+        tolerances=tuple(sorted(tolerances.items())))
     # effects that cannot sit on this plant (a dead zone on a force drive)
     _fit_effects(replace(plant, effects=()), effects,
                  [f"{index(join(where, 'effects'), i)} ({e.name})" for i, e in enumerate(effects)], problems)

@@ -57,6 +57,10 @@ def plant_to_dict(plant: Plant) -> dict:
     if modules:  # effects from files outside the package: the file names them (absolute paths)
         d["effect_modules"] = modules
     d["effects"] = [e.to_dict() for e in plant.effects]
+    for path, pct in plant.tolerances:  # a datasheet value keeps its tolerance
+        section, key = path.split(".")
+        if key in d.get(section, {}):
+            d[section][key] = {"value": d[section][key], "tolerance_pct": pct}
     return d
 
 
@@ -153,8 +157,9 @@ def _merge(target, old: dict, new: dict, notes: dict, before_key=None) -> None:
                     target.insert(list(target).index(before_key), key, section)
                 else:
                     target[key] = section
+            sub = notes.get(key, {})  # a value with its tolerance: the note goes beside its value
             _merge(target[key], old.get(key, {}) if isinstance(old.get(key), dict) else {}, value,
-                   notes.get(key, {}))
+                   sub if isinstance(sub, dict) else {"value": sub})
             continue
         changed = key not in old or not _close(old[key], value)
         if changed or (key in notes and key not in target):

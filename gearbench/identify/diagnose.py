@@ -43,9 +43,9 @@ from dataclasses import dataclass, field, replace
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
 from .evidence import explain, signal_evidence
-from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, set_values
+from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees, set_values
 from .replay import Replay, ReplayError
-from . import search
+from . import calibration, search
 from ..workers import process_pool, worker_count
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
@@ -155,7 +155,7 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
         values.update(est or {})
         with_it = plant.with_effects(AddedEffect(cand.name, values))
         mine = Free.effect(with_it, len(with_it.effects) - 1)
-        frees = mine + [Free.plant(with_it, p) for p in free_plant]
+        frees = mine + plant_frees(with_it, free_plant)
         for i in refit:
             frees += Free.effect(with_it, i)
         if not frees:
@@ -244,7 +244,7 @@ def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
     both = plant.with_effects(*(AddedEffect(t.candidate.name, {**t.candidate.options, **t.params})
                                 for t in (first, second)))
     mine = Free.effect(both, n) + Free.effect(both, n + 1)
-    frees = mine + [Free.plant(both, p) for p in free_plant]
+    frees = mine + plant_frees(both, free_plant)
     for i in refit:
         frees += Free.effect(both, i)
     try:
@@ -304,7 +304,8 @@ class Diagnosis:
     baseline: FitResult
     baseline_plant: Plant
     baseline_relative_pct: float
-    free_plant: tuple = ()
+    nominal_error: float = math.nan           # the plant file's values as they are
+    calibration: dict = field(default_factory=dict)  # calibration.Plan.report of the final model
 
     def to_json(self) -> dict:
         """The SPEC's ``diagnose --json`` object (plus units and explanations).
@@ -323,6 +324,7 @@ class Diagnosis:
             return d
         return {
             "ranking": RANKING,
+            "nominal_error": self.nominal_error,
             "baseline_error": self.baseline_error,
             "noise_floor": self.noise_floor,
             "error_signal": self.signal,
@@ -337,6 +339,7 @@ class Diagnosis:
                         "relative_error_pct": s.relative_error_pct, "model": s.model,
                         "plant_params": s.plant_params, "explanation": s.explanation}
                        for s in self.ladder],
+            "calibration": self.calibration,
         }
 
 
@@ -427,7 +430,7 @@ def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant
         effects = list(res.plant.effects)
         effects[i] = AddedEffect(*simpler)
         trial = replace(res.plant, effects=tuple(effects))
-        frees = [Free.plant(trial, p) for p in free_plant]
+        frees = plant_frees(trial, free_plant)
         for j in added:
             frees += Free.effect(trial, j)
         try:
@@ -442,7 +445,7 @@ def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant
 
 def _model(plant: Plant, free_plant) -> tuple[list, dict]:
     """A rung's ``model`` (effects as in a plant file) and ``plant_params`` (the free plant values)."""
-    return [e.to_dict() for e in plant.effects], {p: get_value(plant, Free.plant(plant, p)) for p in free_plant}
+    return [e.to_dict() for e in plant.effects], {f.name: get_value(plant, f) for f in plant_frees(plant, free_plant)}
 
 
 def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> FitResult | None:
@@ -450,7 +453,7 @@ def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> 
     ``first`` on) and the free plant parameters refitted from where they are."""
     effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
     trial = replace(res.plant, effects=effects)
-    frees = [Free.plant(trial, p) for p in free_plant]
+    frees = plant_frees(trial, free_plant)
     for j in range(first, len(effects)):
         frees += Free.effect(trial, j)
     try:
@@ -483,7 +486,8 @@ def _prune(replay, scorer, res: FitResult, first: int, free_plant) -> list[tuple
 
 
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
-             workers: int | None = None, progress=None, only: tuple[str, ...] = ()) -> Diagnosis:
+             workers: int | None = None, progress=None, only: tuple[str, ...] = (),
+             calibrate: bool = True) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
 
     Each rung fits every candidate with the effects added so far held (cheap),
@@ -495,16 +499,23 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
     usable cores, ``gearbench.workers``); only: restrict the candidates to
-    these effect names (a model structure).
+    these effect names (a model structure); calibrate: move the plant's own
+    datasheet values within their tolerances (``calibration.plan``) in the
+    baseline and in every joint refit.
     """
     unknown = [n for n in only if n not in REGISTRY]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(REGISTRY)}")
     scorer = Scorer(replay)
-    frees = [Free.plant(plant, p) for p in free_plant]
-    base = fit(replay, plant, frees, scorer) if frees else evaluate(replay, scorer, plant)
+    as_given = evaluate(replay, scorer, plant)
+    cal = calibration.plan(plant, replay, scorer) if calibrate else calibration.Plan()
+    # calibrated in the baseline and every joint refit; held at the current values in the screening
+    refitted = tuple(free_plant) + tuple(cal.frees)
+    frees = plant_frees(plant, refitted)
+    base = fit(replay, plant, frees, scorer) if frees else as_given
     if not base.converged:
-        raise ReplayError(f"the baseline fit of {', '.join(free_plant)} did not converge: {base.message}")
+        raise ReplayError(f"the baseline fit of {', '.join(f.label for f in frees)} did not converge: "
+                          f"{base.message}")
     unit = replay.data.signal_unit(scorer.primary) if scorer.primary in replay.data.signals else \
         replay.data.input_unit
     current, current_res = base.plant, base
@@ -519,11 +530,15 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                       f"{unit} (all signals: {current_res.weighted_rms:.3g}x their noise floors)")
             break
         added = tuple(range(len(plant.effects), len(current.effects)))
-        tried = _rank(_fit_all(replay, scorer, current, candidates(current, replay, only), free_plant,
+        # the first rung starts from the file's values: a baseline calibrated without the missing
+        # effect has moved them to mimic it (bench rig, Coulomb friction hidden at the motor: the
+        # joint fit from there stopped at 1.21x the noise floors, the load inertia 6 % off)
+        here = plant if step == 0 else current
+        tried = _rank(_fit_all(replay, scorer, here, candidates(here, replay, only), free_plant,
                                (), workers, progress))
-        if added:
+        if added or cal.frees:
             top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
-            joint = _fit_all(replay, scorer, current, top, free_plant, added, workers, None)
+            joint = _fit_all(replay, scorer, here, top, refitted, added, workers, None)
             tried = _rank(joint + tried[len(top):])
         if step == 0:
             first_tried = tried
@@ -548,26 +563,26 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                           f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
                           f"{unit}) and {gain}; the missing physics is not in the library")
             break
-        pair = _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers) \
+        pair = _better_pair(replay, scorer, here, current_res, best, tried, refitted, added, workers) \
             if len(ladder) + 2 <= max_steps else None
         if pair is None:
             text = explain(replay, scorer, current_res, best, tried)
-            fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), free_plant)
+            fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
         else:
             first, second = pair.first, pair.as_second()
             ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
                                first.result.error, scorer.relative_pct(first.result.sim), first.result.bic,
-                               *_model(first.result.plant, free_plant),
+                               *_model(first.result.plant, refitted),
                                explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best)))
             rungs.append(len(ladder) - 1)
             best = second
             text = explain(replay, scorer, first.result, second) + (
                 f" Fitted jointly with {first.candidate.label()} (the pair's rung before).")
             fitted, notes = _simplify(replay, scorer, pair.result, added + (len(current.effects),
-                                                                             len(current.effects) + 1), free_plant)
+                                                                             len(current.effects) + 1), refitted)
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
-                           *_model(fitted.plant, free_plant),
+                           *_model(fitted.plant, refitted),
                            text))
         rungs.append(len(ladder) - 1)
         for i, old, new, gain in notes:
@@ -579,12 +594,12 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                                  f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
                                  "parameters do not pay.")
         current, current_res = fitted.plant, fitted
-        for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), free_plant):
+        for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), refitted):
             rungs.pop(current_res.plant.effects.index(gone) - len(plant.effects))
             opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
             ladder.append(Step(gone.name, opts, {k: v for k, v in gone.values.items() if not isinstance(v, str)},
                                {}, without.error, scorer.relative_pct(without.sim), without.bic,
-                               *_model(without.plant, free_plant),
+                               *_model(without.plant, refitted),
                                f"Taken out at step {len(ladder) + 1}: once {best.candidate.label()} is in, "
                                f"{gone.name} no longer pays; refitted without it the error is "
                                f"{without.error:.4g} {unit} against {current_res.error:.4g} {unit}, the BIC "
@@ -594,4 +609,5 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
             current, current_res = without.plant, without
     verdict = ladder[rungs[0]].effect if rungs else None
     return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
-                     reason, current, base, base.plant, scorer.relative_pct(base.sim), tuple(free_plant))
+                     reason, current, base, base.plant, scorer.relative_pct(base.sim), as_given.error,
+                     cal.report(current, current_res.stderr))

@@ -27,20 +27,11 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..measure.noise import noise_floor
-from ..plant.components import Plant
+from ..plant.components import FITTABLE, Plant
 from ..plant.effects import AddedEffect
 from .replay import Replay, ReplayError
 from .uncertainty import standard_errors
 
-PLANT_FIELDS = {  # key path -> (unit, low bound)
-    "motor.inertia": ("kg m^2", 0.0), "motor.damping": ("N m s/rad", 0.0),
-    "motor.resistance": ("ohm", 0.0), "motor.inductance": ("H", 0.0),
-    "motor.torque_constant": ("N m/A", 0.0), "motor.back_emf_constant": ("V s/rad", 0.0),
-    "gear.backlash_deg": ("deg", 0.0), "gear.mesh_stiffness": ("N m/rad", 0.0),
-    "gear.mesh_damping": ("N m s/rad", 0.0), "load.inertia": ("kg m^2", 0.0),
-    "load.damping": ("N m s/rad", 0.0), "leadscrew.mass": ("kg", 0.0),
-    "leadscrew.damping": ("N s/m", 0.0),
-}
 
 
 EXCESS = {("stribeck_friction", "static_torque"): "coulomb_torque"}
@@ -63,22 +54,28 @@ class Free:
     scale: float
     unit: str
     above: str | None = None  # the fit coordinate is this value minus parameter ``above`` (>= 0)
+    tied: tuple = ()  # ((path, factor), ...): plant fields moved with it, set to factor x its value
 
     @property
     def name(self) -> str:
         return self.key if self.index is None else f"effects[{self.index}].{self.key}"
 
+    @property
+    def label(self) -> str:
+        """The name, with the fields tied to it (``motor.torque_constant ~ back_emf_constant``)."""
+        return " ~ ".join([self.name] + [t.split(".")[1] for t, _ in self.tied])
+
     @staticmethod
     def plant(plant: Plant, path: str) -> "Free":
-        if path not in PLANT_FIELDS:
+        if path not in FITTABLE:
             raise FitError(f"--free {path}: not a plant parameter gearbench can fit; choose from "
-                           f"{', '.join(PLANT_FIELDS)}")
+                           f"{', '.join(FITTABLE)}")
         section, key = path.split(".")
         comp = getattr(plant, section)
         if comp is None:
             raise FitError(f"--free {path}: the plant has no {section}")
         v = float(getattr(comp, key))
-        unit, low = PLANT_FIELDS[path]
+        unit, low = FITTABLE[path]
         return Free(path, None, low, math.inf, abs(v) if v else 1.0, unit)
 
     @staticmethod
@@ -97,6 +94,12 @@ class Free:
                 file_key(e.values, floor) if "location" in e.effect.options else floor)
             out.append(Free(k, i, 0.0 if above else q.low, q.high, scale, q.unit, above))
         return out
+
+
+def plant_frees(plant: Plant, items) -> list[Free]:
+    """Free plant parameters from ``items``: paths (``--free``: bounded below only) or
+    :class:`Free` objects as they are (calibration's, bounded by their tolerances)."""
+    return [Free.plant(plant, p) if isinstance(p, str) else p for p in items]
 
 
 def param_value(plant: Plant, f: Free) -> float:
@@ -123,8 +126,9 @@ def set_values(plant: Plant, frees: list[Free], values) -> Plant:
     for f, v in pairs:
         v = float(v)
         if f.index is None:
-            section, key = f.key.split(".")
-            plant = replace(plant, **{section: replace(getattr(plant, section), **{key: v})})
+            for path, factor in ((f.key, 1.0),) + f.tied:
+                section, key = path.split(".")
+                plant = replace(plant, **{section: replace(getattr(plant, section), **{key: v * factor})})
         else:
             e = effects[f.index]
             if f.above:

@@ -97,6 +97,17 @@ class Leadscrew:
         return self.lead_mm * 1e-3 / (2.0 * math.pi)
 
 
+FITTABLE = {  # key path -> (unit, low bound): the plant values fit and calibration may move
+    "motor.inertia": ("kg m^2", 0.0), "motor.damping": ("N m s/rad", 0.0),
+    "motor.resistance": ("ohm", 0.0), "motor.inductance": ("H", 0.0),
+    "motor.torque_constant": ("N m/A", 0.0), "motor.back_emf_constant": ("V s/rad", 0.0),
+    "gear.backlash_deg": ("deg", 0.0), "gear.mesh_stiffness": ("N m/rad", 0.0),
+    "gear.mesh_damping": ("N m s/rad", 0.0), "load.inertia": ("kg m^2", 0.0),
+    "load.damping": ("N m s/rad", 0.0), "leadscrew.mass": ("kg", 0.0),
+    "leadscrew.damping": ("N s/m", 0.0),
+}
+
+
 @dataclass(frozen=True)
 class Plant:
     """A motor, a gear pair with backlash, a load; optionally a shaft and a leadscrew.
@@ -114,6 +125,11 @@ class Plant:
     effects: tuple = field(default_factory=tuple)
     name: str = "plant"
     drive: str = "voltage"
+    tolerances: tuple = ()  # ((path, tolerance_pct), ...): datasheet values and how far they may be off
+
+    def tolerance_pct(self, path: str) -> float | None:
+        """The plant file's tolerance of ``path`` (``motor.resistance``), %, or None if it gives none."""
+        return dict(self.tolerances).get(path)
 
     @property
     def motor_inertia_total(self) -> float:

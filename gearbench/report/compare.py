@@ -223,22 +223,26 @@ def residual_figure(residual, speed, position, name: str, unit: str, speed_unit:
 
 
 def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, unit: str = "",
-                  title: str = "") -> Figure:
+                  title: str = "", calibration: Mapping | None = None) -> Figure:
     """The error after each step of the ladder: ``steps[0]`` the baseline, then one
     ``{"effect": name, "error": value}`` per effect added (``"action": "remove"``: an
-    effect taken out again, drawn hatched as ``- name``); a dashed line marks the
+    effect taken out again, drawn hatched as ``- name``; ``"action": "calibrate"``: the
+    plant's own values calibrated, drawn as a baseline); a dashed line marks the
     noise floor (the error noise alone would leave) when given.  ``unit`` labels the
-    error axis, logarithmic when the errors span more than two decades."""
+    error axis, logarithmic when the errors span more than two decades.
+    ``calibration`` (``diagnose --json``'s) lists each calibrated value under the bars."""
     if not steps:
         raise ValueError("a ladder needs at least its baseline step")
     removed = [i > 0 and s.get("action") == "remove" for i, s in enumerate(steps)]
-    names = [str(s["effect"]) if i == 0 else f"{'-' if removed[i] else '+'} {s['effect']}"
+    calibrated = [s.get("action") == "calibrate" for s in steps]
+    names = [str(s["effect"]) if i == 0 or calibrated[i] else f"{'-' if removed[i] else '+'} {s['effect']}"
              for i, s in enumerate(steps)]
     errors = np.array([float(s["error"]) for s in steps])
     fig = Figure(figsize=(max(5.0, 1.3 * len(steps) + 2), 4), layout="constrained")
     ax = fig.subplots()
     pos = np.arange(len(steps))
-    bars = ax.bar(pos, errors, color=["#9e9e9e"] + ["C1" if r else "C0" for r in removed[1:]], width=0.6)
+    colours = ["#9e9e9e"] + ["#c8c8c8" if c else "C1" if r else "C0" for r, c in zip(removed[1:], calibrated[1:])]
+    bars = ax.bar(pos, errors, color=colours, width=0.6)
     for bar, r in zip(bars, removed):
         if r:
             bar.set_hatch("//")
@@ -257,7 +261,21 @@ def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, un
         ax.set_ylim(0, 1.15 * top)
     ax.set_title(title or "error as effects are added")
     ax.grid(axis="y", alpha=0.3)
+    if calibration:
+        fig.text(0.01, 0.01, "\n".join(_calibration_line(k, c) for k, c in calibration.items()),
+                 fontsize=6.5, va="bottom", family="monospace")
+        fig.set_figheight(4 + 0.13 * len(calibration))
+        fig.get_layout_engine().set(rect=(0, 0.13 * len(calibration) / fig.get_figheight() + 0.02, 1, 1))
     return fig
+
+
+def _calibration_line(name: str, c: Mapping) -> str:
+    """``motor.resistance 1.21 -> 1.1 +- 0.0003 ohm (tolerance 20 %)`` or ``... held: why``."""
+    if c["status"] != "calibrated":
+        return f"{name} {c['nominal']:.4g} {c['unit']}: held at the file's value"
+    se = c.get("stderr")
+    return (f"{name} {c['nominal']:.4g} -> {c['value']:.4g}" + (f" +- {se:.2g}" if se is not None else "")
+            + f" {c['unit']} (tolerance {c['tolerance_pct']:g} %)")
 
 
 __all__ = ["comparison_figure", "residual_figure", "residual_tests_figure", "ladder_figure", "PHASE_COLOURS"]

@@ -1,0 +1,188 @@
+"""Calibration of the plant's own parameters: datasheet values, each within its tolerance.
+
+A plant file is written from datasheets, typically 5-20 % off on resistance,
+torque constant, inertias and dampings.  Fitted with its values exact, such a
+plant leaves a residual that a missing effect would leave too, and diagnose
+would add an effect to explain a parameter that is off.  So diagnose and fit
+first move the plant's own values within their tolerance (bounds
+``v (1 +- tolerance_pct/100)``), and with every effect they weigh.
+
+Which values: each one the plant file gives a tolerance
+(``resistance: {value: 2.2, tolerance_pct: 10}``; ``tolerance_pct: 0`` holds it
+exactly), and :data:`DATASHEET_TOLERANCE_PCT` for the datasheet values it gives
+none.  The torque and back-emf constants are one physical constant (the motor's
+flux linkage; equal in SI): calibrated as one, the back-emf constant keeps its
+ratio to the torque constant in the file.  Apart, the torque constant would trade
+off exactly with every inertia, damping and mesh value: only their ratios move
+the motor.  The gear's mesh, the
+inductance and the backlash are not calibrated unless the file gives a
+tolerance: the mesh and the inductance act far above a 1 kHz record's band, and
+a clearance is the ``backlash`` effect's to find.
+
+Not every value can be told from a record.  With the voltage as input and only
+an angle measured, the motor is seen through ``k/(R J)`` and ``(k^2/R + b)/J``
+alone: torque constant, resistance, inertia and damping cannot all be
+calibrated.  :func:`plan` asks
+the record before fitting: at the file's values it takes the sensitivity ``J_j``
+of the noise-weighted residuals to each value (central differences, 0.1 % steps)
+and the standard error the record would give it at its noise floors,
+``sigma_j = sqrt((J^T J)^-1_jj)`` (the Cramer-Rao bound), with every other
+value gearbench can fit (the inductance, the mesh, the backlash: never exact
+either) free beside it, so that a value told apart from the others only by an
+exactly known inductance or mesh does not count as resolved.  A value whose
+``sigma_j`` exceeds :data:`RESOLVE` of its tolerance half-width is held at the
+file's value: the record does not pin it down better than the datasheet does.
+The report says which were held, why, and the value each trades off with most
+(the combination the record does see).  With only the output angle measured the
+bench rig's resistance, inertias and dampings are held, and the motor constant
+alone is calibrated: they move the angle only through ``R J`` and ``R b``
+(``tests/test_calibration.py``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..plant.components import FITTABLE, Plant
+from .fit import Free, Scorer, param_value, set_values
+from .replay import Replay, ReplayError
+from .uncertainty import central_jacobian
+
+DATASHEET_TOLERANCE_PCT = {
+    "motor.resistance": 20.0, "motor.torque_constant": 20.0, "motor.back_emf_constant": 20.0,
+    "motor.inertia": 20.0, "motor.damping": 20.0, "load.inertia": 20.0, "load.damping": 20.0,
+    "leadscrew.mass": 20.0, "leadscrew.damping": 20.0,
+}
+"""Tolerance (%) of the datasheet values a plant file gives none for: the top of the 5-20 % that
+resistance (winding temperature alone: 0.39 %/K), torque constant, inertias and dampings are
+typically off by."""
+
+RESOLVE = 0.25
+"""A value is calibrated when the record would give it a standard error below this fraction of its
+tolerance half-width (at the noise floors); else it is held at the file's value."""
+
+STEP = 1e-3  # relative step of the central differences (1e-2 hid an exact trade-off under the mesh's nonlinearity)
+
+
+@dataclass
+class Plan:
+    """What calibration moves: ``frees`` (bounded by the tolerances), ``held`` (each with why),
+    and the file's value of each (``nominal``, by :attr:`Free.name`)."""
+    frees: list[Free] = field(default_factory=list)
+    held: list[tuple[Free, str]] = field(default_factory=list)
+    nominal: dict = field(default_factory=dict)
+    tolerance: dict = field(default_factory=dict)
+
+    def report(self, plant: Plant, stderr: dict) -> dict:
+        """``calibration`` of ``diagnose --json``: per value its nominal (the file's), calibrated
+        value, standard error, unit, tolerance and status (``calibrated`` or ``held``, with why)."""
+        out = {}
+        for f in self.frees:
+            out[f.label] = {"nominal": self.nominal[f.name], "value": param_value(plant, f),
+                            "stderr": stderr.get(f.name, math.nan), "unit": f.unit,
+                            "tolerance_pct": self.tolerance[f.name], "status": "calibrated"}
+        for f, why in self.held:
+            out[f.label] = {"nominal": self.nominal[f.name], "value": param_value(plant, f), "stderr": None,
+                            "unit": f.unit, "tolerance_pct": self.tolerance[f.name], "status": "held",
+                            "message": why}
+        return out
+
+
+def tolerances(plant: Plant) -> dict[str, float]:
+    """The tolerance (%) of every value that calibration may move: the file's, else the
+    datasheet default; values of 0 (nothing to scale) and tolerances of 0 are left out."""
+    out = {}
+    for path in FITTABLE:
+        section, key = path.split(".")
+        comp = getattr(plant, section)
+        if comp is None or getattr(comp, key, None) is None or not getattr(comp, key):
+            continue
+        pct = plant.tolerance_pct(path)
+        pct = DATASHEET_TOLERANCE_PCT.get(path) if pct is None else pct
+        if pct:
+            out[path] = pct
+    return out
+
+
+def _others(plant: Plant, tol: dict[str, float]) -> list[str]:
+    """The values gearbench can fit that calibration leaves alone (no tolerance), nonzero,
+    and not held exactly by the file (``tolerance_pct: 0``)."""
+    out = []
+    for path in FITTABLE:
+        section, key = path.split(".")
+        comp = getattr(plant, section)
+        if path in tol or comp is None or not getattr(comp, key, None) or plant.tolerance_pct(path) == 0:
+            continue
+        out.append(path)
+    return out
+
+
+def _frees(plant: Plant, tol: dict[str, float]) -> list[Free]:
+    """One bounded Free per value; the back-emf constant moves with the torque constant."""
+    m = plant.motor
+    tie = "motor.torque_constant" in tol and "motor.back_emf_constant" in tol
+    out = []
+    for path, pct in tol.items():
+        if tie and path == "motor.back_emf_constant":
+            continue
+        f = Free.plant(plant, path)
+        v = param_value(plant, f)
+        tied = ((("motor.back_emf_constant", m.back_emf_constant / m.torque_constant),)
+                if tie and path == "motor.torque_constant" else ())
+        out.append(Free(f.key, None, v * (1 - pct / 100), v * (1 + pct / 100), v, f.unit, tied=tied))
+    return out
+
+
+def plan(plant: Plant, replay: Replay, scorer: Scorer) -> Plan:
+    """The values this record can calibrate (module docstring: the rule and why)."""
+    tol = tolerances(plant)
+    frees = _frees(plant, tol)
+    p = Plan(nominal={f.name: param_value(plant, f) for f in frees},
+             tolerance={f.name: tol[f.key] for f in frees})
+    if not frees:
+        return p
+    nuisance = [Free.plant(plant, path) for path in _others(plant, tol)]
+    x0 = np.array([param_value(plant, f) for f in frees + nuisance])
+    try:
+        jac = central_jacobian(lambda x: scorer.weighted(replay.run(set_values(plant, frees + nuisance, x))),
+                               x0, STEP * x0) * x0  # per relative change: better conditioned
+    except ReplayError as exc:
+        p.held = [(f, f"not calibrated: the plant does not simulate 0.1 % away from the file's values ({exc})")
+                  for f in frees]
+        return p
+    rel, corr = _bound(jac)
+    keep = []
+    for i, f in enumerate(frees):
+        ratio = rel[i] / (tol[f.key] / 100)
+        if ratio <= RESOLVE:
+            keep.append(i)
+            continue
+        why = (f"held at the file's value: this record would give it a standard error of "
+               f"{rel[i] * x0[i]:.3g} {f.unit} at its noise floors, {ratio:.3g}x its tolerance "
+               f"(+-{tol[f.key]:g} %)" if math.isfinite(rel[i]) else
+               "held at the file's value: this record does not see it apart from the others")
+        others = [j for j in range(len(x0)) if j != i and math.isfinite(corr[i, j])]
+        if others:
+            j = max(others, key=lambda j: abs(corr[i, j]))
+            if abs(corr[i, j]) > 0.5:
+                why += f"; it trades off with {(frees + nuisance)[j].label} (correlation {corr[i, j]:+.3f})"
+        p.held.append((f, why))
+    p.frees = [frees[i] for i in keep]
+    return p
+
+
+def _bound(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors ``sqrt(diag((J^T J)^-1))`` and correlations at unit residual variance
+    (inf and NaN where ``J^T J`` is singular)."""
+    k = jac.shape[1]
+    try:
+        cov = np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return np.full(k, math.inf), np.full((k, k), math.nan)
+    d = np.diag(cov)
+    sigma = np.where(d > 0, np.sqrt(np.abs(d)), math.inf)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sigma, sigma)
+    return sigma, corr
