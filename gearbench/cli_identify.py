@@ -171,8 +171,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
               help="Try only these effects (a model structure), comma-separated.")
 @click.option("--calibrate/--no-calibrate", default=True, show_default=True,
               help="Calibrate the plant's own datasheet values within their tolerances (the plant file's "
-                   "'{value, tolerance_pct}', else 20 % on resistance, torque constant, inertias, dampings) in "
-                   "the baseline and with the best candidates; values the record cannot resolve are held.")
+                   "'{value, tolerance_pct}', else 20 % on resistance, torque constant, inertias, dampings): "
+                   "a step that competes with the effects by the same criterion, not an effect; values the "
+                   "record cannot resolve are held.")
 @click.option("--max-steps", type=int, default=4, show_default=True, help="Longest ladder.")
 @click.option("--workers", type=int, default=None, help="Processes (default: all cores).")
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
@@ -221,25 +222,19 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     j = d.to_json()
     out = _out_dir(results, "diagnose", plant_file, data_file)
     cal = j["calibration"]
-    n_cal = sum(c["status"] == "calibrated" for c in cal.values())
-    steps = [{"effect": "as given" if n_cal else "baseline", "error": d.nominal_error}]
-    if n_cal:
-        steps.append({"effect": f"calibrated ({n_cal})", "error": d.baseline_error, "action": "calibrate"})
-    steps += [{"effect": s.effect, "error": s.error, "action": s.action} for s in d.ladder]
-    fig = ladder_figure(steps, noise_floor=d.noise_floor, unit=d.unit, title=f"{plant.name}: {data_file.name}",
-                        calibration=cal)
+    fig = ladder_figure(d.ladder_steps(), noise_floor=d.noise_floor, unit=d.unit,
+                        title=f"{plant.name}: {data_file.name}", calibration=cal)
     save_figure_atomic(fig, out / "ladder.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
     md = [f"# diagnose {plant.name} against {data_file.name}", "",
           f"Error: {j['error_metric']}. Baseline {d.baseline_error:.4g} {d.unit}, noise floor {d.noise_floor:.4g} {d.unit}.",
           "", f"Verdict: **{d.verdict}**" if d.verdict else f"Verdict: none. {d.reason}.", "",
-          "| step | effect | parameters | error |", "|---|---|---|---|",
-          f"| 0 | (as given) | | {d.nominal_error:.4g} {d.unit} |"]
-    if n_cal:
-        md.append(f"| 0 | (calibrated) | {n_cal} plant values, below | {d.baseline_error:.4g} {d.unit} |")
-    md += [f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
-           + ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |"
-           for i, s in enumerate(d.ladder, 1)]
+          "| step | effect | parameters | error |", "|---|---|---|---|"]
+    md.append(f"| 0 | (baseline) | | {d.baseline_error:.4g} {d.unit} |")
+    for i, s in _rows(d):
+        md.append(f"| | (datasheet values calibrated, below) | | {s:.4g} {d.unit} |" if i is None else
+                  f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
+                  + ", ".join(f"{p} = {v:.4g}" for p, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |")
     md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
     if cal:
         md += ["", "## Calibration of the plant's own values (the final model)", "",
@@ -262,11 +257,12 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
     for col in ("step", "effect", "parameters", "error"):
         lad.add_column(col)
-    lad.add_row("0", "(as given)", "", f"{d.nominal_error:.4g}")
-    if n_cal:
-        lad.add_row("0", "(calibrated)", ", ".join(f"{k} = {c['value']:.4g}" for k, c in cal.items()
-                                                    if c["status"] == "calibrated"), f"{d.baseline_error:.4g}")
-    for i, s in enumerate(d.ladder, 1):
+    lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
+    for i, s in _rows(d):
+        if i is None:
+            lad.add_row("", "(datasheet values calibrated)", ", ".join(
+                f"{k} = {c['value']:.4g}" for k, c in cal.items() if c["status"] == "calibrated"), f"{s:.4g}")
+            continue
         lad.add_row(str(i), ("taken out: " if s.action == "remove" else "")
                     + s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
                     ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
@@ -286,6 +282,13 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     console.print(f"figures and tables in {out}/")
 
 
+def _rows(d):
+    """The ladder's rows after the baseline: ``(number, Step)``, and ``(None, error)`` where the
+    datasheet values were calibrated."""
+    rungs = iter(enumerate(d.ladder, 1))
+    return [(None, st["error"]) if st.get("action") == "calibrate" else next(rungs) for st in d.ladder_steps()[1:]]
+
+
 @click.command()
 @common
 @click.option("--effect", "effect_spec", required=True, metavar="'NAME [key=value ...]'",
@@ -293,8 +296,10 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
                    "without a location every allowed place is tried and the best kept.")
 @click.option("--free", "free", multiple=True, metavar="KEY", help="A plant parameter fitted too (e.g. load.inertia).")
 @click.option("--refit", is_flag=True, help="Refit the parameters of the effects the plant already has, too.")
-@click.option("--calibrate/--no-calibrate", default=True, show_default=True,
-              help="Fit the plant's own datasheet values within their tolerances too (as diagnose does).")
+@click.option("--calibrate", is_flag=True,
+              help="Fit the plant's own datasheet values within their tolerances too (as diagnose does); "
+                   "best once the model has every effect, since beside an incomplete model they take up "
+                   "part of what is missing.")
 @click.option("--max-evals", type=int, default=None,
               help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,

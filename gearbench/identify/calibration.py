@@ -75,14 +75,19 @@ class Plan:
     nominal: dict = field(default_factory=dict)
     tolerance: dict = field(default_factory=dict)
 
-    def report(self, plant: Plant, stderr: dict) -> dict:
-        """``calibration`` of ``diagnose --json``: per value its nominal (the file's), calibrated
-        value, standard error, unit, tolerance and status (``calibrated`` or ``held``, with why)."""
+    def report(self, plant: Plant, stderr: dict, done: bool = True) -> dict:
+        """``calibration`` of ``diagnose --json``: per value its nominal (the file's), final
+        value, standard error, unit, tolerance and status: ``calibrated``; ``held``, with why;
+        ``file value`` when calibrating (``done`` False) did not pay."""
         out = {}
         for f in self.frees:
             out[f.label] = {"nominal": self.nominal[f.name], "value": param_value(plant, f),
-                            "stderr": stderr.get(f.name, math.nan), "unit": f.unit,
-                            "tolerance_pct": self.tolerance[f.name], "status": "calibrated"}
+                            "stderr": stderr.get(f.name, math.nan) if done else None, "unit": f.unit,
+                            "tolerance_pct": self.tolerance[f.name],
+                            "status": "calibrated" if done else "file value"}
+            if not done:
+                out[f.label]["message"] = ("kept: calibrating the datasheet values did not pay by the criterion "
+                                           "that adds an effect")
         for f, why in self.held:
             out[f.label] = {"nominal": self.nominal[f.name], "value": param_value(plant, f), "stderr": None,
                             "unit": f.unit, "tolerance_pct": self.tolerance[f.name], "status": "held",

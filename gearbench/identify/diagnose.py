@@ -29,6 +29,14 @@ effect (``_accepts``); it then takes two rungs, each with its explanation:
 first its member that ranked higher alone (its single fit), then the other
 with the joint fit.  Otherwise the best single is added, as before.
 
+A plant file's datasheet values are typically 5-20 % off (``calibration``):
+"a value is off" competes with "an effect is missing" at every rung until it
+wins once.  Calibrating them from the start would let them take up part of
+whatever is missing and run to their bounds (the bench rig with a spring and
+Coulomb friction hidden: the ladder then took friction at the motor and a shaft
+compliance, each taken out later); as a rival step, the calibration comes when
+it explains more than the best effect, or after the effects that do.
+
 The ladder repeats: add the verdict with its fitted parameters, diagnose
 again, until nothing more pays.  It steps both ways: after each rung every
 effect an earlier rung added is refitted out, and one that no longer pays by
@@ -304,8 +312,20 @@ class Diagnosis:
     baseline: FitResult
     baseline_plant: Plant
     baseline_relative_pct: float
-    nominal_error: float = math.nan           # the plant file's values as they are
     calibration: dict = field(default_factory=dict)  # calibration.Plan.report of the final model
+    calibration_step: CalibrationStep | None = None
+
+    def ladder_steps(self) -> list[dict]:
+        """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
+        calibration of the datasheet values where it came (``action: calibrate``)."""
+        steps = [{"effect": "baseline", "error": self.baseline_error}]
+        for i, s in enumerate(self.ladder + [None]):
+            c = self.calibration_step
+            if c is not None and c.after == i:
+                steps.append({"effect": "calibrated", "error": c.result.error, "action": "calibrate"})
+            if s is not None:
+                steps.append({"effect": s.effect, "error": s.error, "action": s.action})
+        return steps
 
     def to_json(self) -> dict:
         """The SPEC's ``diagnose --json`` object (plus units and explanations).
@@ -313,7 +333,12 @@ class Diagnosis:
         ``candidates`` are the first rung's, best first by :data:`RANKING`; each carries
         ``effect``, ``options`` ({} when it has none), ``params``, ``error`` and ``bic``,
         ``stderr``, the number ``k`` of fitted parameters, a ``status`` (``ok``, or
-        ``failed`` with ``error`` and ``bic`` null) and a ``message`` saying why it failed."""
+        ``failed`` with ``error`` and ``bic`` null) and a ``message`` saying why it failed.
+        ``calibration``: per datasheet value its file value, final value, standard error,
+        unit, tolerance and status (``calibrated``; ``held``, the record cannot resolve it;
+        ``file value``, calibration did not pay), with a ``message``;
+        ``calibration_step``: when calibration paid, after how many ladder steps, the error
+        after it and its BIC change, else null."""
         def cand(t: Tried) -> dict:
             d = {"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
                  "error": t.result.error if t.ok else None, "bic": t.result.bic if t.ok else None,
@@ -324,7 +349,6 @@ class Diagnosis:
             return d
         return {
             "ranking": RANKING,
-            "nominal_error": self.nominal_error,
             "baseline_error": self.baseline_error,
             "noise_floor": self.noise_floor,
             "error_signal": self.signal,
@@ -340,6 +364,9 @@ class Diagnosis:
                         "plant_params": s.plant_params, "explanation": s.explanation}
                        for s in self.ladder],
             "calibration": self.calibration,
+            "calibration_step": None if self.calibration_step is None else {
+                "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
+                "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
         }
 
 
@@ -485,6 +512,29 @@ def _prune(replay, scorer, res: FitResult, first: int, free_plant) -> list[tuple
     return out
 
 
+@dataclass
+class CalibrationStep:
+    """The plant's datasheet values calibrated (``calibration.plan``'s), after ``after`` ladder
+    steps: the model before, after, and the best effect it beat."""
+    after: int
+    before: FitResult
+    result: FitResult
+    rival: Tried | None
+
+
+def _calibrate(replay, scorer, plant: Plant, frees, added: tuple[int, ...]) -> FitResult | None:
+    """``plant`` with ``frees`` (the free and calibrated plant values) and the effects numbered
+    in ``added`` fitted jointly; None when it does not converge."""
+    trial = plant_frees(plant, frees)
+    for i in added:
+        trial += Free.effect(plant, i)
+    try:
+        r = fit(replay, plant, trial, scorer)
+    except (ReplayError, ValueError):
+        return None
+    return r if r.converged else None
+
+
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
              workers: int | None = None, progress=None, only: tuple[str, ...] = (),
              calibrate: bool = True) -> Diagnosis:
@@ -499,50 +549,77 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
     usable cores, ``gearbench.workers``); only: restrict the candidates to
-    these effect names (a model structure); calibrate: move the plant's own
-    datasheet values within their tolerances (``calibration.plan``) in the
-    baseline and in every joint refit.
+    these effect names (a model structure); calibrate: the plant's own
+    datasheet values within their tolerances (``calibration.plan``) may be
+    calibrated, once, as a step that competes with each rung's best effect by
+    the criterion that adds an effect (``_accepts``; the lower BIC wins), with
+    the effects already added refitted; from then on they are refitted with
+    every joint refit.  A calibration is not a verdict, and the effects that no
+    longer pay once it is in are taken out.
     """
     unknown = [n for n in only if n not in REGISTRY]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(REGISTRY)}")
     scorer = Scorer(replay)
-    as_given = evaluate(replay, scorer, plant)
-    cal = calibration.plan(plant, replay, scorer) if calibrate else calibration.Plan()
-    # calibrated in the baseline and every joint refit; held at the current values in the screening
-    refitted = tuple(free_plant) + tuple(cal.frees)
-    frees = plant_frees(plant, refitted)
-    base = fit(replay, plant, frees, scorer) if frees else as_given
+    frees = plant_frees(plant, free_plant)
+    base = fit(replay, plant, frees, scorer) if frees else evaluate(replay, scorer, plant)
     if not base.converged:
-        raise ReplayError(f"the baseline fit of {', '.join(f.label for f in frees)} did not converge: "
-                          f"{base.message}")
+        raise ReplayError(f"the baseline fit of {', '.join(free_plant)} did not converge: {base.message}")
     unit = replay.data.signal_unit(scorer.primary) if scorer.primary in replay.data.signals else \
         replay.data.input_unit
+    cal = calibration.plan(plant, replay, scorer) if calibrate else calibration.Plan()
+    cal_step: CalibrationStep | None = None
+    refitted = tuple(free_plant)  # the calibrated values join once calibration has paid
     current, current_res = base.plant, base
     ladder: list[Step] = []
     rungs: list[int] = []  # the ladder step that added each effect of the model past the plant's own
     first_tried: list[Tried] = []
     reason = ""
-    for step in range(max_steps):
-        if step > 0 and current_res.weighted_rms <= AT_NOISE:
-            reason = (f"after {len(ladder)} step(s) the model explains the record down to its noise: "
-                      f"error {current_res.error:.4g} {unit} against a noise floor of {scorer.noise_floor:.4g} "
-                      f"{unit} (all signals: {current_res.weighted_rms:.3g}x their noise floors)")
+
+    def prune(after: str):
+        nonlocal current, current_res
+        for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), refitted):
+            rungs.pop(current_res.plant.effects.index(gone) - len(plant.effects))
+            opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
+            ladder.append(Step(gone.name, opts, {k: v for k, v in gone.values.items() if not isinstance(v, str)},
+                               {}, without.error, scorer.relative_pct(without.sim), without.bic,
+                               *_model(without.plant, refitted),
+                               f"Taken out at step {len(ladder) + 1}: once {after} is in, "
+                               f"{gone.name} no longer pays; refitted without it the error is "
+                               f"{without.error:.4g} {unit} against {current_res.error:.4g} {unit}, the BIC "
+                               f"{'rises' if gain > 0 else 'falls'} by {abs(gain):.1f} (an effect must lower it by "
+                               f"more than {MIN_BIC_DROP:g} and the weighted RMS by {MIN_ERROR_DROP:.0%} to stay).",
+                               action="remove"))
+            current, current_res = without.plant, without
+
+    step = 0
+    while step < max_steps:
+        if (ladder or cal_step) and current_res.weighted_rms <= AT_NOISE:
+            reason = (f"after {len(ladder)} step(s){' and the calibration' if cal_step else ''} the model "
+                      f"explains the record down to its noise: error {current_res.error:.4g} {unit} against a "
+                      f"noise floor of {scorer.noise_floor:.4g} {unit} (all signals: "
+                      f"{current_res.weighted_rms:.3g}x their noise floors)")
             break
         added = tuple(range(len(plant.effects), len(current.effects)))
-        # the first rung starts from the file's values: a baseline calibrated without the missing
-        # effect has moved them to mimic it (bench rig, Coulomb friction hidden at the motor: the
-        # joint fit from there stopped at 1.21x the noise floors, the load inertia 6 % off)
-        here = plant if step == 0 else current
-        tried = _rank(_fit_all(replay, scorer, here, candidates(here, replay, only), free_plant,
+        # screened with the calibrated values held (cheap); the best few refitted with them below
+        tried = _rank(_fit_all(replay, scorer, current, candidates(current, replay, only), free_plant,
                                (), workers, progress))
-        if added or cal.frees:
+        if added:
             top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
-            joint = _fit_all(replay, scorer, here, top, refitted, added, workers, None)
+            joint = _fit_all(replay, scorer, current, top, refitted, added, workers, None)
             tried = _rank(joint + tried[len(top):])
-        if step == 0:
+        if not first_tried:
             first_tried = tried
         best = tried[0] if tried and tried[0].ok else None
+        if cal.frees and cal_step is None:
+            cal_res = _calibrate(replay, scorer, current, refitted + tuple(cal.frees), added)
+            if cal_res is not None and _accepts(current_res, cal_res) and (
+                    best is None or not _accepts(current_res, best.result) or cal_res.bic <= best.result.bic):
+                cal_step = CalibrationStep(len(ladder), current_res, cal_res, best)
+                refitted += tuple(cal.frees)
+                current, current_res = cal_res.plant, cal_res
+                prune("the calibration")
+                continue  # not a rung: the effects are tried again on the calibrated plant
         if best is None or not _accepts(current_res, best.result):
             if best is None:
                 gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
@@ -552,18 +629,19 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                         f"weighted RMS {current_res.weighted_rms:.4g} -> {best.result.weighted_rms:.4g}; an "
                         f"added effect must lower the BIC by more than {MIN_BIC_DROP:g} and the weighted RMS "
                         f"by {MIN_ERROR_DROP:.0%})")
+            calibrated = " once its datasheet values are calibrated" if cal_step else ""
             if step > 0:
                 reason = f"after {len(ladder)} step(s) nothing more pays: {gain}"
             elif current_res.weighted_rms <= AT_NOISE:
-                reason = (f"the model explains the record down to its noise: error {current_res.error:.4g} {unit} "
-                          f"against a noise floor of {scorer.noise_floor:.4g} {unit} (all signals: "
-                          f"{current_res.weighted_rms:.3g}x their noise floors); {gain}")
+                reason = (f"the model explains the record down to its noise{calibrated}: error "
+                          f"{current_res.error:.4g} {unit} against a noise floor of {scorer.noise_floor:.4g} {unit} "
+                          f"(all signals: {current_res.weighted_rms:.3g}x their noise floors); {gain}")
             else:
                 reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
                           f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
-                          f"{unit}) and {gain}; the missing physics is not in the library")
+                          f"{unit}){calibrated} and {gain}; the missing physics is not in the library")
             break
-        pair = _better_pair(replay, scorer, here, current_res, best, tried, refitted, added, workers) \
+        pair = _better_pair(replay, scorer, current, current_res, best, tried, refitted, added, workers) \
             if len(ladder) + 2 <= max_steps else None
         if pair is None:
             text = explain(replay, scorer, current_res, best, tried)
@@ -594,20 +672,9 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                                  f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
                                  "parameters do not pay.")
         current, current_res = fitted.plant, fitted
-        for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), refitted):
-            rungs.pop(current_res.plant.effects.index(gone) - len(plant.effects))
-            opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
-            ladder.append(Step(gone.name, opts, {k: v for k, v in gone.values.items() if not isinstance(v, str)},
-                               {}, without.error, scorer.relative_pct(without.sim), without.bic,
-                               *_model(without.plant, refitted),
-                               f"Taken out at step {len(ladder) + 1}: once {best.candidate.label()} is in, "
-                               f"{gone.name} no longer pays; refitted without it the error is "
-                               f"{without.error:.4g} {unit} against {current_res.error:.4g} {unit}, the BIC "
-                               f"{'rises' if gain > 0 else 'falls'} by {abs(gain):.1f} (an effect must lower it by "
-                               f"more than {MIN_BIC_DROP:g} and the weighted RMS by {MIN_ERROR_DROP:.0%} to stay).",
-                               action="remove"))
-            current, current_res = without.plant, without
+        prune(best.candidate.label())
+        step += 1
     verdict = ladder[rungs[0]].effect if rungs else None
     return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
-                     reason, current, base, base.plant, scorer.relative_pct(base.sim), as_given.error,
-                     cal.report(current, current_res.stderr))
+                     reason, current, base, base.plant, scorer.relative_pct(base.sim),
+                     cal.report(current, current_res.stderr, cal_step is not None), cal_step)

@@ -10,7 +10,8 @@ engineer would have measured, in the SPEC's measurement format (section 3):
   sample (zero-order hold), exactly as ``Replay`` drives a model with it;
 * the signals are the simulated ones (``signals.from_outputs``), then the
   plant's sensor effects (``Effect.measure``: delay, quantisation), then
-  white gaussian noise of a given standard deviation -- except on a signal
+  gaussian noise of a given standard deviation, white or AR(1)-coloured
+  (:func:`ar1`) -- except on a signal
   an encoder quantises: an encoder counts the true angle and has no analog
   noise, so that signal gets none;
 * the record starts at rest with the mesh centred in its clearance.
@@ -26,6 +27,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from scipy.signal import lfilter
 
 from .. import layout as L
 from ..control.controllers import Controller
@@ -414,9 +416,23 @@ def _check_signals(plant: Plant, signals: Sequence[str]) -> None:
         raise SynthError("cannot synthesize: " + "; ".join(problems))
 
 
+def ar1(white: np.ndarray, rho: float) -> np.ndarray:
+    """Stationary AR(1) noise of unit marginal variance from unit white noise ``e``:
+    ``w_0 = e_0``, ``w_t = rho w_{t-1} + sqrt(1 - rho^2) e_t`` (lag-k correlation ``rho^k``);
+    ``rho = 0`` returns ``e`` itself.  ``|rho| < 1``."""
+    if not -1.0 < rho < 1.0:
+        raise ValueError(f"the AR(1) noise coefficient must lie in (-1, 1), got {rho!r}")
+    if rho == 0.0:
+        return white
+    b = math.sqrt(1.0 - rho ** 2)
+    # the filter's state set so that w_0 = b e_0 + (1 - b) e_0 = e_0
+    return lfilter([b], [1.0, -rho], white, zi=[(1.0 - b) * white[0]])[0]
+
+
 def synthesize(plant: Plant, hidden: Sequence[AddedEffect], time_s, input,
                signals: Sequence[str] | None = None, noise: Mapping[str, float] | None = None,
-               seed: int = 0, label: str = "") -> Measurement:
+               seed: int = 0, label: str = "", noise_ar1: float = 0.0,
+               options: SolverOptions | None = None) -> Measurement:
     """The record ``plant`` with ``hidden`` effects gives for an open-loop ``input``.
 
     Parameters
@@ -439,6 +455,11 @@ def synthesize(plant: Plant, hidden: Sequence[AddedEffect], time_s, input,
         Seed of the noise.
     label : str
         Name of the run in error messages.
+    noise_ar1 : float
+        Lag-1 correlation ``rho`` of the noise (:func:`ar1`: each signal's noise an AR(1)
+        process with the same marginal standard deviation); 0 (default): white.
+    options : SolverOptions, optional
+        The solver; default ``SOLVER``.
 
     Returns
     -------
@@ -446,7 +467,7 @@ def synthesize(plant: Plant, hidden: Sequence[AddedEffect], time_s, input,
         Checked like a file (``from_arrays``): ``time_s``, the input column,
         the signals ``y = noise + measure(from_outputs(sim))``.  The
         simulation: open loop, at rest with the mesh centred at ``t = 0``
-        (``time_s[0]``), ``SOLVER`` (Rosenbrock, rtol 1e-6, steps <= 1 ms),
+        (``time_s[0]``), ``options`` (default ``SOLVER``: rtol 1e-6, steps <= 1 ms),
         sampled exactly at ``time_s``.
 
     Raises
@@ -476,7 +497,7 @@ def synthesize(plant: Plant, hidden: Sequence[AddedEffect], time_s, input,
     tr = t - t0
     name = label or f"synth {truth.name}"
     run = simulate_packed(p, scales, Segments(tr, u, np.zeros_like(u)), float(tr[-1]),
-                          rest_state(truth), SOLVER, name, output_times=tr)
+                          rest_state(truth), options or SOLVER, name, output_times=tr)
     if not run.ok:
         when = run.stats[L.S_T_FAIL]
         msg = failure_message(run, truth.name, truth).replace(f"t = {when:.6g} s", f"t = {when + t0:.6g} s")
@@ -488,7 +509,7 @@ def synthesize(plant: Plant, hidden: Sequence[AddedEffect], time_s, input,
         for e in truth.effects:
             y = e.effect.measure(e.values, sig, y, t, truth)
         # drawn for every signal, so one signal's noise does not depend on another's level
-        w = rng.standard_normal(len(t))
+        w = ar1(rng.standard_normal(len(t)), noise_ar1)
         cols[sig] = y + sigma[sig] * w if sigma[sig] > 0 else y
     return from_arrays(t, input_column(truth), u, cols, source=name)
 
@@ -526,5 +547,5 @@ def truth_dict(plant_name: str, hidden: Sequence[AddedEffect], noise: Mapping[st
 
 
 __all__ = ["excitation", "steps", "profile_input", "profile_controller", "read_input_file",
-           "input_scale", "input_column", "synthesize", "truth_dict", "resolved_noise",
+           "input_scale", "input_column", "synthesize", "ar1", "truth_dict", "resolved_noise",
            "default_signals", "quantized_signals", "SynthError", "DEFAULT_NOISE", "STEP_LEVELS"]

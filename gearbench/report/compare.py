@@ -265,7 +265,8 @@ def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, un
         fig.text(0.01, 0.01, "\n".join(_calibration_line(k, c) for k, c in calibration.items()),
                  fontsize=6.5, va="bottom", family="monospace")
         fig.set_figheight(4 + 0.13 * len(calibration))
-        fig.get_layout_engine().set(rect=(0, 0.13 * len(calibration) / fig.get_figheight() + 0.02, 1, 1))
+        bottom = 0.13 * len(calibration) / fig.get_figheight() + 0.02  # room for the lines, in figure height
+        fig.get_layout_engine().set(rect=(0, bottom, 1, 1 - bottom))
     return fig
 
 
