@@ -529,7 +529,7 @@ def _calibrate(replay, scorer, plant: Plant, frees, added: tuple[int, ...]) -> F
     for i in added:
         trial += Free.effect(plant, i)
     try:
-        r = fit(replay, plant, trial, scorer)
+        r = fit(replay, plant, trial, scorer, central=True)
     except (ReplayError, ValueError):
         return None
     return r if r.converged else None
