@@ -59,6 +59,9 @@ def test_diagnose_json_has_the_spec_keys(record, tmp_path):
     errs = [c["error"] for c in out["candidates"] if c["error"] is not None]
     assert out["ladder"][0]["error"] < out["baseline_error"] and errs[0] == min(errs)
     assert (tmp_path / "diagnose_bench_rig_rig" / "ladder.png").exists()
+    # standard errors per candidate and rung; strongly correlated pairs listed (one parameter: none)
+    assert out["candidates"][0]["stderr"]["torque"] > 0 and out["candidates"][0]["correlations"] == []
+    assert out["ladder"][0]["stderr"] and isinstance(out["ladder"][0]["correlations"], list)
 
 
 def test_fit_writes_a_plant_that_loads_and_fits_better(record, tmp_path):
