@@ -1,6 +1,6 @@
 # gearbench: two commands set everything up on a fresh machine.
 #   make run   - create .venv, install, reproduce Table I, the gain scans, the tutorial's
-#                diagnosis and the EMPS study into results/
+#                diagnosis, the EMPS study and the standard errors' coverage into results/
 #   make test  - create .venv, install with test extras, run the test suite
 #   make test-all - the same with the slow tests too (the 10,000-input fuzz, every hidden-effect
 #                case on its 16 s record)
@@ -37,6 +37,7 @@ run: install
 	$(BIN)/gearbench diagnose experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/python -m studies.hidden_effects --results results
 	$(BIN)/python -m studies.emps --results results --no-library
+	$(BIN)/python -m studies.coverage --results results
 
 test: install-test
 	$(BIN)/python -m pytest -q

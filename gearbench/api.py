@@ -894,7 +894,8 @@ class FitReport:
         Fitted values by parameter path (``effects[0].torque``), in the
         effect's units (see its plant-file keys).
     stderr : dict
-        Their standard errors, same keys and units.
+        Their standard errors, same keys and units, valid for residuals correlated in time
+        (:func:`gearbench.identify.uncertainty.covariance`).
     error_before, error_after : float
         RMS of the primary signal's residual before and after, in ``unit``.
     unit : str
@@ -903,6 +904,10 @@ class FitReport:
         The primary signal.
     message : str
         The optimiser's message.
+    units : dict
+        The unit of each value and standard error, same keys.
+    correlation : dict
+        Parameter -> parameter -> correlation of the two estimates.
 
     Examples
     --------
@@ -911,8 +916,8 @@ class FitReport:
     >>> f.to_pandas().round(2)
                                value  stderr
     parameter
-    effects[0].stiffness        2.34    0.01
-    effects[0].rest_angle_deg   1.25    0.12
+    effects[0].stiffness        2.34    0.06
+    effects[0].rest_angle_deg   1.25    1.63
     """
     effect: str
     plant: Plant = field(repr=False)
@@ -923,10 +928,13 @@ class FitReport:
     unit: str
     signal: str
     message: str = ""
+    units: dict = field(default_factory=dict)
+    correlation: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The fit as plain values (JSON-ready)."""
-        return {"effect": self.effect, "values": self.values, "stderr": self.stderr,
+        return {"effect": self.effect, "values": self.values, "stderr": self.stderr, "units": self.units,
+                "correlation": self.correlation,
                 "error_before": self.error_before, "error_after": self.error_after,
                 "error_unit": self.unit, "error_signal": self.signal, "message": self.message}
 
@@ -939,7 +947,7 @@ class FitReport:
         from .experiment.writer import plant_to_yaml
         return plant_to_yaml(self.plant, self.stderr, f"{self.plant.name} + {self.effect}, fitted by gearbench\n"
                              f"error (RMS of {self.signal}): {self.error_before:.4g} -> {self.error_after:.4g} "
-                             f"{self.unit}")
+                             f"{self.unit}", self.units)
 
 
 def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, effect: str, *,
@@ -1030,4 +1038,5 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     unit = data.signal_unit(scorer.primary) if scorer.primary in data.signals else data.input_unit
     res = best.result
     return FitReport(best.candidate.label(), res.plant, res.values, res.stderr,
-                     scorer.error(replay.run(plant)), res.error, unit, scorer.primary, res.message)
+                     scorer.error(replay.run(plant)), res.error, unit, scorer.primary, res.message,
+                     res.units, res.correlation)

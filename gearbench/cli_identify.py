@@ -305,19 +305,24 @@ def _rows(d):
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The new plant file (written only if the fit converges).")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print {converged, effect, values, stderr, error_before, error_after, error_signal, "
+              help="Print {converged, effect, values, stderr, units, correlation (parameter -> parameter -> "
+                   "correlation of the two estimates), error_before, error_after, error_signal, "
                    "output, tried} as one JSON object on stdout instead of the table.")
 def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, calibrate, max_evals,
         output, as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
-    The new plant file holds the fitted values with their standard errors as
-    comments.  A fit that does not converge says so, writes nothing and exits 1.
+    The new plant file holds the fitted values with their standard errors (and
+    units) as comments; the table lists them, then the pairs of estimates
+    correlated beyond +-0.9.  The standard errors hold for residuals correlated
+    in time (a prewhitened Newey-West sandwich, gearbench.identify.uncertainty).
+    A fit that does not converge says so, writes nothing and exits 1.
     """
     from .api import fit_candidates
     from .cli_synth import parse_effect
     from .identify.fit import Scorer
     from .experiment.writer import update_plant_yaml
+    from .identify.uncertainty import strong_correlations
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic
     try:
@@ -350,19 +355,22 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
               f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}")
     # the user's file edited in place of a fresh dump: comments, key order and description stay
     write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, res.plant,
-                                                res.stderr, header))
+                                                res.stderr, header, res.units))
     if as_json:
         echo_json({"converged": True, "effect": best.candidate.label(), "values": res.values,
-                   "stderr": res.stderr, "error_signal": scorer.primary, "error_before": base_err,
+                   "stderr": res.stderr, "units": res.units, "correlation": res.correlation,
+                   "error_signal": scorer.primary, "error_before": base_err,
                    "error_after": res.error, "output": str(output), "tried": attempts})
         console.print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}",
                       highlight=False)
         return
     tab = Table(title=f"{best.candidate.label()} fitted to {data_file.name}")
-    for col in ("parameter", "value", "standard error"):
+    for col in ("parameter", "value", "standard error", "unit"):
         tab.add_column(col)
     for k, v in res.values.items():
         se = res.stderr.get(k, math.nan)
-        tab.add_row(k, f"{v:.6g}", f"{se:.3g}")
+        tab.add_row(k, f"{v:.6g}", f"{se:.3g}", res.units.get(k, ""))
     stdout().print(tab)
+    for a, b, rho in strong_correlations(res.correlation):
+        stdout().print(f"correlated estimates: {a} and {b}, {rho:+.3f}", highlight=False)
     stdout().print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}")

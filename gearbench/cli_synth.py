@@ -101,7 +101,8 @@ def parse_noise(specs: tuple[str, ...]) -> dict[str, float]:
     return out
 
 
-def _command_line(plant_file, effects, excitation, duration, sample_time, noise, signals, seed, output) -> str:
+def _command_line(plant_file, effects, excitation, duration, sample_time, noise, signals, seed, output,
+                  noise_ar1: float = 0.0) -> str:
     words = ["gearbench", "synth", str(plant_file)]
     for e in effects:
         words += ["--effect", e]
@@ -112,6 +113,8 @@ def _command_line(plant_file, effects, excitation, duration, sample_time, noise,
         words += ["--sample-time", f"{sample_time:g}"]
     for n in noise:
         words += ["--noise", n]
+    if noise_ar1:
+        words += ["--noise-ar1", f"{noise_ar1:g}"]
     for s in signals:
         words += ["--signal", s]
     words += ["--seed", str(seed), "-o", str(output)]
@@ -138,6 +141,10 @@ def _command_line(plant_file, effects, excitation, duration, sample_time, noise,
               help="Noise standard deviation of a signal in its unit [default: 0.01 deg on angles, "
                    "0.005 A on current, 0.001 mm on positions]; all=STD sets every signal. "
                    "An encoder-quantised signal gets none. Repeatable.")
+@click.option("--noise-ar1", "noise_ar1", type=click.FloatRange(-1.0, 1.0, min_open=True, max_open=True),
+              default=0.0, show_default=True, metavar="RHO",
+              help="Colour the noise: each signal's noise an AR(1) process with lag-1 correlation RHO "
+                   "(lag k: RHO^k), its standard deviation still the --noise one; 0 = white.")
 @click.option("--signal", "signals", multiple=True, metavar="COLUMN",
               help="A measured column to record (repeatable) [default: motor_angle_deg, "
                    "load_angle_deg or load_position_mm, and current_A for a voltage drive].")
@@ -148,7 +155,7 @@ def _command_line(plant_file, effects, excitation, duration, sample_time, noise,
               help="Print {output, truth, samples, duration_s, input, signals, hidden, wall_s} as one "
                    "JSON object on stdout.")
 def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration: float | None,
-          sample_time: float, noise: tuple[str, ...], signals: tuple[str, ...], seed: int,
+          sample_time: float, noise: tuple[str, ...], noise_ar1: float, signals: tuple[str, ...], seed: int,
           output: Path, as_json: bool) -> None:
     """Synthesize a measurement: PLANT.yaml with hidden effects, driven open loop.
 
@@ -181,7 +188,7 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
         # the controller of profile:N runs on the real rig, hidden effects and all
         t, u = S.excitation(excitation, truth, duration, sample_time, seed)
         data = S.synthesize(plant, hidden, t, u, sigs, noise_given, seed,
-                            label=f"synth {plant.name} ({excitation})")
+                            label=f"synth {plant.name} ({excitation})", noise_ar1=noise_ar1)
         exc_info: dict = {"kind": excitation, "duration_s": float(t[-1] - t[0]),
                           "samples": len(t)}
         if excitation == "steps":
@@ -212,8 +219,9 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
         record = S.truth_dict(str(plant_file), hidden, S.resolved_noise(truth, sigs, noise_given), seed,
                               exc_info, plant_model=plant.name, data=output.name,
                               signals=list(sigs), input=data.input_name,
+                              noise_ar1=noise_ar1,
                               command=_command_line(plant_file, effects, excitation, duration,
-                                                    sample_time, noise, signals, seed, output),
+                                                    sample_time, noise, signals, seed, output, noise_ar1),
                               notes=notes)
         text = (f"# What {output.name} hides: made by gearbench synth from {plant_file}.\n"
                 + yaml.safe_dump(record, sort_keys=False, allow_unicode=True, width=10_000))

@@ -311,16 +311,15 @@ def _free_paper_name(plant: Plant, f: Free) -> str:
 
 def standard_errors(replay: Replay, plant: Plant, frees: Sequence[Free],
                     rel_step: float = 1e-4) -> dict[str, float]:
-    """Standard errors of ``frees`` at ``plant`` (paper names and units), by
-    :func:`gearbench.identify.uncertainty.standard_errors` on the noise-weighted force residual
-    with a central-difference Jacobian.  They assume white residuals; the closed-loop
-    residual is strongly correlated, so they are optimistic (a lower bound)."""
+    """Standard errors of ``frees`` at ``plant`` (paper names and units): the sandwich covariance
+    of :func:`gearbench.identify.uncertainty.covariance` (valid for the closed-loop force
+    residual's strong correlation in time) with a central-difference Jacobian."""
     scorer = Scorer(replay)
     x0 = np.array([get_value(plant, f) for f in frees])
     r0 = scorer.weighted(replay.run(plant))
     jac = central_jacobian(lambda x: scorer.weighted(replay.run(set_values(plant, list(frees), x))), x0,
                            [rel_step * max(abs(x), f.scale) for x, f in zip(x0, frees)])
-    se = uncertainty.standard_errors(jac, float(r0 @ r0), r0.size)
+    se = uncertainty.standard_errors(uncertainty.covariance(jac, r0, 1))
     return {_free_paper_name(plant, f): float(e) for f, e in zip(frees, se)}
 
 
@@ -956,8 +955,8 @@ def markdown(s: dict) -> str:
           f"It took {d0['ladder_seconds']:.0f} s.", ""]
     L += ["Fitted parameters (last rung, delay "
           f"{s['delay_samples']}) beside the paper's IDIM-LS values.  Standard errors: "
-          "`s²(JᵀJ)⁻¹` of the noise-weighted force residual; they assume white residuals, the "
-          "closed-loop residual is strongly correlated, so read them as lower bounds.", "",
+          "the sandwich `H⁻¹ΩH⁻¹` of the noise-weighted force residual (prewhitened Newey-West Ω, "
+          "gearbench.identify.uncertainty), valid for the closed-loop residual's correlation in time.", "",
           "| parameter | fitted | ± std. error | paper | difference | within 5 % |", "|---|---|---|---|---|---|"]
     for r in d0["params_vs_paper"]:
         L.append(f"| {r['name']} | {_f(r['fitted'], 5)} | {_f(r['stderr'], 2)} | {r['paper']} | "

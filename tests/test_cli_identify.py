@@ -59,6 +59,12 @@ def test_diagnose_json_has_the_spec_keys(record, tmp_path):
     errs = [c["error"] for c in out["candidates"] if c["error"] is not None]
     assert out["ladder"][0]["error"] < out["baseline_error"] and errs[0] == min(errs)
     assert (tmp_path / "diagnose_bench_rig_rig" / "ladder.png").exists()
+    # standard errors per candidate and rung; the pairs of estimates (calibrated plant values
+    # included) correlated beyond 0.9 listed by full name
+    assert out["candidates"][0]["stderr"]["torque"] > 0
+    for entry in out["candidates"][0]["correlations"] + out["ladder"][0]["correlations"]:
+        assert set(entry) == {"a", "b", "rho"} and abs(entry["rho"]) > 0.9 and entry["a"] != entry["b"]
+    assert out["ladder"][0]["stderr"]
 
 
 def test_fit_writes_a_plant_that_loads_and_fits_better(record, tmp_path):

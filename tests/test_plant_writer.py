@@ -124,4 +124,13 @@ def test_fit_output_keeps_the_plant_files_comments(record, tmp_path):
     assert "description: >\n  Lab rig for practice and tests" in text
     (e,) = load_plant(out).effects
     assert e.values["torque"] == pytest.approx(0.8, rel=0.05)
-    assert re.search(r"\n  torque: [0-9.]+ +# fitted, standard error [0-9.e-]+\n", text)
+    assert re.search(r"\n  torque: [0-9.]+ +# fitted, standard error [0-9.e-]+ N m\n", text)
+
+
+def test_the_standard_error_carries_its_unit_and_the_file_still_loads(tmp_path):
+    text = RIG.read_text()
+    old = load_plant(RIG)
+    new = old.with_effects(AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5}))
+    out = update_plant_yaml(text, old, new, {"effects[0].torque": 0.0123}, "h", {"effects[0].torque": "N m"})
+    assert re.search(r"torque: 0.5 +# fitted, standard error 0.0123 N m\n", out)
+    assert plant_to_dict(reload(tmp_path, out)) == plant_to_dict(new)

@@ -251,6 +251,17 @@ def test_noise_has_the_asked_size_and_depends_on_the_seed(rig, record):
     assert np.std(big.signals["load_angle_deg"] - truth.signals["load_angle_deg"]) == pytest.approx(0.1, rel=0.05)
 
 
+def test_ar1_noise_keeps_its_size_and_is_coloured(rig, record):
+    truth = synth.synthesize(rig, [], *record, noise=clean(rig))
+    a = synth.synthesize(rig, [], *record, seed=7, noise_ar1=0.9)
+    e = a.signals["load_angle_deg"] - truth.signals["load_angle_deg"]
+    assert np.std(e) == pytest.approx(0.01, rel=0.15)  # ~len/19 independent samples
+    assert np.corrcoef(e[1:], e[:-1])[0, 1] == pytest.approx(0.9, abs=0.03)
+    white = synth.synthesize(rig, [], *record, seed=7)
+    w = white.signals["load_angle_deg"] - truth.signals["load_angle_deg"]
+    assert abs(np.corrcoef(w[1:], w[:-1])[0, 1]) < 0.1
+
+
 def test_synthesize_rejects_what_the_plant_cannot_measure(rig, record):
     with pytest.raises(synth.SynthError, match="load_position_mm"):
         synth.synthesize(rig, [], *record, signals=("motor_angle_deg", "load_position_mm"))
@@ -290,6 +301,16 @@ def test_cli_writes_data_and_truth(tmp_path):
     again = tmp_path / "e.csv"
     assert CliRunner().invoke(main, args[:-1] + [str(again)]).exit_code == 0
     assert out.read_text() == again.read_text()
+
+
+def test_cli_noise_ar1_is_written_to_the_truth(tmp_path):
+    out = tmp_path / "c.csv"
+    res = CliRunner().invoke(main, ["synth", str(RIG), "--duration", "1", "--noise-ar1", "0.8", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    truth = yaml.safe_load((tmp_path / "c.truth.yaml").read_text())
+    assert truth["noise_ar1"] == 0.8 and "--noise-ar1 0.8" in truth["command"]
+    bad = CliRunner().invoke(main, ["synth", str(RIG), "--noise-ar1", "1", "-o", str(out)])
+    assert bad.exit_code == 2
 
 
 def test_cli_mixed_excitation_is_written_with_its_pieces(tmp_path):

@@ -64,10 +64,11 @@ def plant_to_dict(plant: Plant) -> dict:
     return d
 
 
-def plant_to_yaml(plant: Plant, stderr: dict | None = None, header: str = "") -> str:
+def plant_to_yaml(plant: Plant, stderr: dict | None = None, header: str = "", units: dict | None = None) -> str:
     """YAML text of the plant; ``stderr`` maps fitted names (``leadscrew.mass``,
-    ``effects[2].force``) to standard errors, written as comments."""
-    stderr = stderr or {}
+    ``effects[2].force``) to standard errors, written as comments with the unit ``units``
+    gives for the name."""
+    stderr, units = stderr or {}, units or {}
     text = yaml.safe_dump(plant_to_dict(plant), sort_keys=False, default_flow_style=False)
     lines = []
     section, effect_i = None, -1
@@ -82,7 +83,7 @@ def plant_to_yaml(plant: Plant, stderr: dict | None = None, header: str = "") ->
         name = f"effects[{effect_i}].{key}" if section == "effects" else f"{section}.{key}"
         if name in stderr and ":" in stripped:
             se = stderr[name]
-            line += f"  # fitted, standard error {se:.3g}" if math.isfinite(se) else "  # fitted"
+            line += f"  # {_comment(se, None, units.get(name, ''))}"
         lines.append(line)
     head = "".join(f"# {h}\n" for h in header.splitlines()) if header else ""
     return head + "\n".join(lines) + "\n"
@@ -92,9 +93,10 @@ _FITTED = "fitted, standard error"
 _PATH = re.compile(r"^(?:effects\[(\d+)\]|(\w+))\.(\w+)$")
 
 
-def _comment(se: float | None, before: Any) -> str:
-    """``fitted, standard error 0.012 (was 0.8)``: what ``fit`` notes beside a value."""
-    text = f"{_FITTED} {se:.3g}" if se is not None and math.isfinite(se) else "fitted"
+def _comment(se: float | None, before: Any, unit: str = "") -> str:
+    """``fitted, standard error 0.012 N m (was 0.8)``: what ``fit`` notes beside a value."""
+    text = (f"{_FITTED} {se:.3g}" + (f" {unit}" if unit else "")
+            if se is not None and math.isfinite(se) else "fitted")
     if isinstance(before, float):
         before = repr(float(f"{before:.6g}"))  # 6 digits, written as YAML would: 2.0, 1.15, 2.35642
     return text + (f" (was {before})" if before is not None else "")
@@ -141,7 +143,7 @@ def _close(a: Any, b: Any) -> bool:
 
 def _merge(target, old: dict, new: dict, notes: dict, before_key=None) -> None:
     """Change ``target`` (a ruamel mapping) where ``new`` differs from ``old``; ``notes``
-    maps keys of this mapping to their fitted comment's standard error."""
+    maps keys of this mapping to their fitted comment's ``(standard error, unit)``."""
     from ruamel.yaml.comments import CommentedMap
 
     for key in list(old):
@@ -166,10 +168,11 @@ def _merge(target, old: dict, new: dict, notes: dict, before_key=None) -> None:
             target[key] = _plain(value)  # a default the file leaves out stays out unless it changed
         if key in notes:
             was = old.get(key) if changed and key in old else None
-            _note(target, key, _comment(notes[key], was))
+            _note(target, key, _comment(notes[key][0], was, notes[key][1]))
 
 
-def update_plant_yaml(text: str, old: Plant, new: Plant, stderr: dict | None = None, header: str = "") -> str:
+def update_plant_yaml(text: str, old: Plant, new: Plant, stderr: dict | None = None, header: str = "",
+                      units: dict | None = None) -> str:
     """The user's plant file ``text`` (which loads as ``old``) edited to hold ``new``.
 
     Parameters
@@ -192,20 +195,20 @@ def update_plant_yaml(text: str, old: Plant, new: Plant, stderr: dict | None = N
         ``new`` (a structure this editor does not handle), the plant is written afresh
         by :func:`plant_to_yaml` and the header says that the comments were lost.
     """
-    stderr = stderr or {}
+    stderr, units = stderr or {}, units or {}
     head = "".join(f"# {h}\n" for h in header.splitlines()) if header else ""
     try:
-        body = _edit(text, plant_to_dict(old), plant_to_dict(new), stderr)
+        body = _edit(text, plant_to_dict(old), plant_to_dict(new), stderr, units)
         if _loads_as(body, new):
             return head + body
         reason = "the edited file did not load back as the fitted plant"
     except Exception as exc:  # any failure of the round trip falls back to a fresh file
         reason = f"{type(exc).__name__}: {exc}"
     note = f"the original file's comments could not be kept ({reason})"
-    return plant_to_yaml(new, stderr, f"{header}\n{note}" if header else note)
+    return plant_to_yaml(new, stderr, f"{header}\n{note}" if header else note, units)
 
 
-def _edit(text: str, old: dict, new: dict, stderr: dict) -> str:
+def _edit(text: str, old: dict, new: dict, stderr: dict, units: dict) -> str:
     from ruamel.yaml import YAML
     from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
@@ -219,7 +222,7 @@ def _edit(text: str, old: dict, new: dict, stderr: dict) -> str:
     for name, se in stderr.items():
         m = _PATH.match(name)
         if m and m.group(1) is None:
-            notes.setdefault(m.group(2), {})[m.group(3)] = se
+            notes.setdefault(m.group(2), {})[m.group(3)] = (se, units.get(name, ""))
     _merge(doc, old, new, notes, before_key="effects")
 
     old_eff, new_eff = old.get("effects", []), new.get("effects", [])
@@ -233,16 +236,16 @@ def _edit(text: str, old: dict, new: dict, stderr: dict) -> str:
         if len(new_eff) > len(seq):
             seq.fa.set_block_style()
         for i, values in enumerate(new_eff):
-            eff_notes = {m.group(3): se for name, se in stderr.items()
+            eff_notes = {m.group(3): (se, units.get(name, "")) for name, se in stderr.items()
                          if (m := _PATH.match(name)) and m.group(1) == str(i)}
             if i < len(seq):
                 _merge(seq[i], old_eff[i], values, eff_notes)
             else:
                 item = CommentedMap((k, _plain(v)) for k, v in values.items())
                 seq.append(item)
-                for key, se in eff_notes.items():
+                for key, (se, unit) in eff_notes.items():
                     if key in item:
-                        _note(item, key, _comment(se, None))
+                        _note(item, key, _comment(se, None, unit))
     out = io.StringIO()
     rt.dump(doc, out)
     return out.getvalue()

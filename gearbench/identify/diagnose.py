@@ -54,6 +54,7 @@ from .evidence import explain, signal_evidence
 from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees, set_values
 from .replay import Replay, ReplayError
 from . import calibration, search
+from .uncertainty import strong_correlations
 from ..workers import process_pool, worker_count
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
@@ -296,6 +297,7 @@ class Step:
     plant_params: dict
     explanation: str = ""
     action: str = "add"     # "add", or "remove": an effect of an earlier rung that no longer pays
+    correlations: list = field(default_factory=list)  # strongly correlated estimates (see _correlated)
 
 
 @dataclass
@@ -332,17 +334,21 @@ class Diagnosis:
 
         ``candidates`` are the first rung's, best first by :data:`RANKING`; each carries
         ``effect``, ``options`` ({} when it has none), ``params``, ``error`` and ``bic``,
-        ``stderr``, the number ``k`` of fitted parameters, a ``status`` (``ok``, or
+        ``stderr``, ``correlations``, the number ``k`` of fitted parameters, a ``status`` (``ok``, or
         ``failed`` with ``error`` and ``bic`` null) and a ``message`` saying why it failed.
         ``calibration``: per datasheet value its file value, final value, standard error,
         unit, tolerance and status (``calibrated``; ``held``, the record cannot resolve it;
         ``file value``, calibration did not pay), with a ``message``;
         ``calibration_step``: when calibration paid, after how many ladder steps, the error
-        after it and its BIC change, else null."""
+        after it and its BIC change, else null.
+        ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
+        (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
+        ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
         def cand(t: Tried) -> dict:
             d = {"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
                  "error": t.result.error if t.ok else None, "bic": t.result.bic if t.ok else None,
-                 "stderr": t.stderr if t.ok else {}, "k": t.result.k if t.ok else None,
+                 "stderr": t.stderr if t.ok else {}, "correlations": _correlated(t.result) if t.ok else [],
+                 "k": t.result.k if t.ok else None,
                  "status": "ok" if t.ok else "failed"}
             if t.note or not t.ok:
                 d["message"] = t.note or "the fit did not converge"
@@ -361,13 +367,19 @@ class Diagnosis:
             "ladder": [{"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
                         "params": s.params, "stderr": s.stderr, "error": s.error,
                         "relative_error_pct": s.relative_error_pct, "model": s.model,
-                        "plant_params": s.plant_params, "explanation": s.explanation}
+                        "plant_params": s.plant_params, "explanation": s.explanation,
+                        "correlations": s.correlations}
                        for s in self.ladder],
             "calibration": self.calibration,
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
                 "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
         }
+
+
+def _correlated(res: FitResult) -> list[dict]:
+    """``[{a, b, rho}]``: the fit's pairs of estimates correlated beyond ``STRONG_CORRELATION``."""
+    return [{"a": a, "b": b, "rho": rho} for a, b, rho in strong_correlations(res.correlation)]
 
 
 def _same_effect(tried: list[Tried]) -> dict[str, list[Tried]]:
@@ -651,7 +663,8 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
             ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
                                first.result.error, scorer.relative_pct(first.result.sim), first.result.bic,
                                *_model(first.result.plant, refitted),
-                               explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best)))
+                               explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best),
+                               correlations=_correlated(first.result)))
             rungs.append(len(ladder) - 1)
             best = second
             text = explain(replay, scorer, first.result, second) + (
@@ -661,7 +674,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
                            fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
                            *_model(fitted.plant, refitted),
-                           text))
+                           text, correlations=_correlated(best.result)))
         rungs.append(len(ladder) - 1)
         for i, old, new, gain in notes:
             rung = ladder[rungs[i - len(plant.effects)]]

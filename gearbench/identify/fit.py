@@ -7,7 +7,8 @@ error of a :class:`~gearbench.identify.replay.Replay`: every compared column's
 residual divided by that column's noise floor, so signals in different units
 weigh by how well they are measured.  ``scipy.optimize.least_squares`` (trust
 region reflective) works on the parameters divided by their scales; standard
-errors come from its Jacobian (:mod:`gearbench.identify.uncertainty`).
+errors and correlations come from its Jacobian and the residuals by a sandwich
+covariance valid for residuals correlated in time (:mod:`gearbench.identify.uncertainty`).
 
 An ordering constraint between two parameters of one effect is a change of
 coordinates, not a penalty: the fit moves Stribeck friction's breakaway level as
@@ -30,7 +31,7 @@ from ..measure.noise import noise_floor
 from ..plant.components import FITTABLE, Plant
 from ..plant.effects import AddedEffect
 from .replay import Replay, ReplayError
-from .uncertainty import standard_errors
+from . import uncertainty as U
 
 
 
@@ -92,7 +93,8 @@ class Free:
             floor = EXCESS.get((e.name, q.name))
             above = None if floor is None else (
                 file_key(e.values, floor) if "location" in e.effect.options else floor)
-            out.append(Free(k, i, 0.0 if above else q.low, q.high, scale, q.unit, above))
+            out.append(Free(k, i, 0.0 if above else q.low, q.high, scale,
+                            file_unit(q.unit, e.values.get("location") == "carriage"), above))
         return out
 
 
@@ -100,6 +102,13 @@ def plant_frees(plant: Plant, items) -> list[Free]:
     """Free plant parameters from ``items``: paths (``--free``: bounded below only) or
     :class:`Free` objects as they are (calibration's, bounded by their tolerances)."""
     return [Free.plant(plant, p) if isinstance(p, str) else p for p in items]
+
+
+def file_unit(unit: str, carriage: bool) -> str:
+    """The unit of a file key: ``"N m (N at the carriage: force)"`` -> ``"N m"``, or ``"N"`` at the
+    carriage (where the file key is the force)."""
+    base, _, rest = unit.partition(" (")
+    return rest.split(" at the carriage")[0] if carriage and rest else base
 
 
 def param_value(plant: Plant, f: Free) -> float:
@@ -214,7 +223,8 @@ class Scorer:
 
 @dataclass
 class FitResult:
-    """A fitted plant: values and standard errors by parameter name, errors, convergence."""
+    """A fitted plant: values, standard errors (sandwich, :func:`uncertainty.covariance`) and their
+    correlations by parameter name, errors, convergence."""
     plant: Plant
     values: dict
     stderr: dict
@@ -227,6 +237,9 @@ class FitResult:
     nfev: int
     sim: dict | None = None
     signals: dict = field(default_factory=dict)  # column -> (weighted RSS, n): the evidence of each signal
+    correlation: dict = field(default_factory=dict)  # name -> name -> correlation of the two estimates
+    units: dict = field(default_factory=dict)  # name -> unit of the value and its standard error
+    stderr_white: dict = field(default_factory=dict)  # the white-residual formula's, for comparison only
 
     @property
     def weighted_rms(self) -> float:
@@ -299,11 +312,17 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     rss, n, k = float(w @ w), w.size, len(frees)
     # res.jac is in the scaled coordinates z = u / scale; the errors are of the parameters' own values
     jac = own_jacobian(res.jac / sc, frees)
-    stderr = {f.name: float(e) for f, e in zip(frees, standard_errors(jac, rss, n))}
+    names = [f.name for f in frees]
+    cov = U.covariance(jac, w, len(objective_signals(replay)))
+    stderr = dict(zip(names, map(float, U.standard_errors(cov))))
+    rho = U.correlation(cov)
+    correlation = {a: {b: float(rho[i, j]) for j, b in enumerate(names)} for i, a in enumerate(names)}
+    white = dict(zip(names, map(float, U.standard_errors(U.white_covariance(jac, w)))))
     converged = res.status > 0
     msg = res.message if converged else f"did not converge: {res.message}"
     if failures and converged:
         msg += f" ({len(failures)} trial simulation(s) failed on the way)"
     values = {f.name: param_value(fitted, f) for f in frees}
     return FitResult(fitted if converged else plant, values, stderr, scorer.error(sim), rss, n, k,
-                     converged, msg, res.nfev, sim, scorer.per_signal(sim))
+                     converged, msg, res.nfev, sim, scorer.per_signal(sim), correlation=correlation,
+                     stderr_white=white, units={f.name: f.unit for f in frees})

@@ -1,0 +1,157 @@
+"""Do the reported standard errors hold?  Coverage of +-2 standard errors over noise seeds.
+
+For each seed: a record of the bench rig (experiments/plants/bench_rig.yaml) with three
+effects hidden -- stick-slip Coulomb friction at the load (0.3 N m), a load spring
+(1.5 N m/rad, rest 5 deg) and viscous friction at the load (0.02 N m s/rad) -- made by
+``synthesize`` at a tighter solver tolerance (``SYNTH_RTOL``) than the fit's replay
+(``FIT_RTOL``, the CLI's default), so the fit does not replay the very simulation that made
+the data (no inverse crime).  Noise: synth's defaults (0.01 deg on the angles, 0.005 A on
+the current), white or AR(1) with lag-1 correlation ``RHO`` (the same marginal standard
+deviation).  The model holds the three effects at values 1-10 % off the truth and the
+motor resistance 10 % off (up on odd seeds, down on even); one joint least-squares fit
+(``fit.fit``) frees the four effect parameters and ``motor.resistance``
+(``Free.plant``: a calibrated plant parameter).
+
+A parameter is covered when ``|fitted - truth| <= 2 SE``; its coverage is the fraction of
+seeds covered, for the standard errors ``fit`` reports (:mod:`gearbench.identify.uncertainty`)
+and, beside them, for the white-residual formula ``s^2 (J^T J)^-1`` they replace.  The
+``steps`` excitation is the one ``tests/test_uncertainty.py`` asserts on (coverage >= 90 %
+for every parameter and noise); ``mixed`` (the practice cases' input) is reported too.
+
+    python -m studies.coverage --results results
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+
+from gearbench.experiment.files import load_plant
+from gearbench.identify import synth as S
+from gearbench.identify.fit import Free, fit, get_value, set_values
+from gearbench.identify.replay import Replay
+from gearbench.plant.effects import AddedEffect
+from gearbench.report.io import write_text_atomic
+from gearbench.simulate import SolverOptions
+
+PLANT = Path(__file__).resolve().parents[1] / "experiments" / "plants" / "bench_rig.yaml"
+HIDDEN = (("coulomb_friction", {"location": "load", "torque": 0.3}),
+          ("load_spring", {"stiffness": 1.5, "rest_angle_deg": 5.0}),
+          ("viscous_friction", {"location": "load", "coefficient": 0.02}))
+CALIBRATED = "motor.resistance"
+DURATION_S = 4.0
+RHO = 0.9
+SYNTH_RTOL = 1e-8
+FIT_RTOL = 1e-6
+SEEDS = 60
+START_OFF = (0.01, 0.10)   # effect parameters start this fraction off the truth (uniform, random sign)
+PLANT_OFF = 0.10           # the calibrated plant parameter starts 10 % off
+COVERED_SE = 2.0
+
+
+def truth_plant():
+    plant = load_plant(PLANT)
+    return plant.with_effects(*(AddedEffect(n, dict(v)) for n, v in HIDDEN))
+
+
+def frees_of(plant) -> list[Free]:
+    return [Free.plant(plant, CALIBRATED)] + [f for i in range(len(plant.effects))
+                                              for f in Free.effect(plant, i)]
+
+
+def record(seed: int, rho: float, excitation: str):
+    """The synthetic record of ``seed`` (excitation and noise), white (``rho`` 0) or AR(1) noise."""
+    plant = load_plant(PLANT)
+    t, u = S.excitation(excitation, plant, DURATION_S, 1e-3, seed)
+    return S.synthesize(plant, [AddedEffect(n, dict(v)) for n, v in HIDDEN], t, u, seed=seed,
+                        noise_ar1=rho, options=SolverOptions(rtol=SYNTH_RTOL, max_step_s=1e-3))
+
+
+def start_values(truth: np.ndarray, seed: int) -> np.ndarray:
+    """The fit's start: the calibrated parameter ``PLANT_OFF`` off, the effects ``START_OFF`` off."""
+    rng = np.random.default_rng(1000 + seed)
+    off = rng.uniform(*START_OFF, size=truth.size) * rng.choice([-1.0, 1.0], size=truth.size)
+    off[0] = PLANT_OFF if seed % 2 else -PLANT_OFF
+    return truth * (1.0 + off)
+
+
+def one(seed: int, rho: float, excitation: str) -> dict:
+    """Fit one record; the truth, the fitted values and both standard errors by parameter."""
+    data = record(seed, rho, excitation)
+    truth_p = truth_plant()
+    frees = frees_of(truth_p)
+    truth = np.array([get_value(truth_p, f) for f in frees])
+    model = set_values(truth_p, frees, start_values(truth, seed))
+    replay = Replay(data, None, 1.0, SolverOptions(rtol=FIT_RTOL, max_step_s=1e-3))
+    t0 = time.perf_counter()
+    res = fit(replay, model, frees)
+    return {"seed": seed, "converged": res.converged, "wall_s": time.perf_counter() - t0,
+            "truth": dict(zip(res.values, truth.tolist())), "fitted": res.values,
+            "stderr": res.stderr, "stderr_white": res.stderr_white}
+
+
+def coverage(rows: list[dict], key: str) -> dict[str, float]:
+    """Per parameter, the fraction of fits with ``|fitted - truth| <= 2 * row[key]``."""
+    names = rows[0]["fitted"]
+    return {n: float(np.mean([abs(r["fitted"][n] - r["truth"][n]) <= COVERED_SE * r[key][n]
+                              for r in rows])) for n in names}
+
+
+def rms_z(rows: list[dict], key: str) -> dict[str, float]:
+    """Per parameter, ``sqrt(mean(((fitted - truth) / SE)^2))``: 1 for calibrated errors."""
+    names = rows[0]["fitted"]
+    return {n: float(math.sqrt(np.mean([((r["fitted"][n] - r["truth"][n]) / r[key][n]) ** 2
+                                        for r in rows]))) for n in names}
+
+
+def run(excitation: str, rho: float, seeds: int = SEEDS) -> dict:
+    rows = [one(s, rho, excitation) for s in range(seeds)]
+    return {"excitation": excitation, "noise": "white" if rho == 0 else f"AR(1) rho {rho:g}",
+            "rho": rho, "seeds": seeds, "converged": sum(r["converged"] for r in rows),
+            "coverage": coverage(rows, "stderr"), "coverage_white_formula": coverage(rows, "stderr_white"),
+            "rms_z": rms_z(rows, "stderr"), "rms_z_white_formula": rms_z(rows, "stderr_white"),
+            "fit_wall_s": float(sum(r["wall_s"] for r in rows)), "fits": rows}
+
+
+def markdown(cases: list[dict]) -> str:
+    names = list(cases[0]["coverage"])
+    md = ["# Coverage of the reported standard errors", "",
+          f"`python -m studies.coverage --results results`. Bench rig, {DURATION_S:g} s records; hidden: "
+          + "; ".join(f"{n} {v}" for n, v in HIDDEN) + f"; {CALIBRATED} calibrated (start "
+          f"{PLANT_OFF:.0%} off). Synth rtol {SYNTH_RTOL:g}, fit rtol {FIT_RTOL:g}. Covered: truth within "
+          f"+-{COVERED_SE:g} SE. 'white formula': s^2 (J^T J)^-1, the formula the sandwich replaced. "
+          "rms z: RMS of (fitted - truth) / SE over the seeds (1 when the SE is right).", "",
+          "| excitation | noise | seeds | parameter | coverage | rms z | coverage, white formula | rms z, white formula |",
+          "|---|---|---|---|---|---|---|---|"]
+    for c in cases:
+        for n in names:
+            md.append(f"| {c['excitation']} | {c['noise']} | {c['seeds']} | {n} | {c['coverage'][n]:.0%} | "
+                      f"{c['rms_z'][n]:.2f} | {c['coverage_white_formula'][n]:.0%} | "
+                      f"{c['rms_z_white_formula'][n]:.2f} |")
+    return "\n".join(md) + "\n"
+
+
+@click.command()
+@click.option("--results", "results_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("results"), show_default=True)
+@click.option("--seeds", type=int, default=SEEDS, show_default=True, help="Noise seeds per case.")
+def main(results_dir: Path, seeds: int) -> None:
+    cases = []
+    for excitation in ("steps", "mixed"):
+        for rho in (0.0, RHO):
+            c = run(excitation, rho, seeds)
+            cases.append(c)
+            click.echo(f"{excitation}, {c['noise']}: coverage "
+                       + ", ".join(f"{n} {v:.0%}" for n, v in c["coverage"].items())
+                       + f" (white formula: " + ", ".join(f"{v:.0%}" for v in c["coverage_white_formula"].values())
+                       + f"); fits {c['fit_wall_s']:.0f} s")
+    write_text_atomic(results_dir / "coverage.md", markdown(cases))
+    write_text_atomic(results_dir / "coverage.json", json.dumps(cases, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
