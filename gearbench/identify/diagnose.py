@@ -51,7 +51,7 @@ from dataclasses import dataclass, field, replace
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
 from .evidence import explain, signal_evidence
-from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees, set_values
+from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees
 from .replay import Replay, ReplayError
 from . import calibration, search
 from .uncertainty import strong_correlations
