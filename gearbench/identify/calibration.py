@@ -3,9 +3,10 @@
 A plant file is written from datasheets, typically 5-20 % off on resistance,
 torque constant, inertias and dampings.  Fitted with its values exact, such a
 plant leaves a residual that a missing effect would leave too, and diagnose
-would add an effect to explain a parameter that is off.  So diagnose and fit
-first move the plant's own values within their tolerance (bounds
-``v (1 +- tolerance_pct/100)``), and with every effect they weigh.
+would add an effect to explain a parameter that is off.  So diagnose may move
+the plant's own values within their tolerance (bounds ``v (1 +- tolerance_pct/100)``),
+as a step that competes with the effects (``diagnose.diagnose``), and
+``fit --calibrate`` fits them beside its effect.
 
 Which values: each one the plant file gives a tolerance
 (``resistance: {value: 2.2, tolerance_pct: 10}``; ``tolerance_pct: 0`` holds it
