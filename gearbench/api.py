@@ -731,7 +731,7 @@ class DiagnosisReport:
     @property
     def calibration(self) -> pd.DataFrame:
         """The plant's calibrated values (final model), one row per value: file value, value,
-        standard error, unit, tolerance (%), status (``calibrated`` or ``held``), message."""
+        standard error, unit, tolerance (%), status (``calibrated``, ``held`` or ``file value``), message."""
         rows = {k: {"nominal": c["nominal"], "value": c["value"], "stderr": c["stderr"], "unit": c["unit"],
                     "tolerance_pct": c["tolerance_pct"], "status": c["status"], "message": c.get("message", "")}
                 for k, c in self.diagnosis.calibration.items()}
@@ -798,9 +798,10 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     workers : int or None
         Processes fitting candidates (None: all cores).
     calibrate : bool
-        Calibrate the plant's own datasheet values within their tolerances (the plant
-        file's ``{value, tolerance_pct}``, else 20 %) in the baseline and with the best
-        candidates (``gearbench.identify.calibration``); the report's ``calibration``.
+        The plant's own datasheet values within their tolerances (the plant file's
+        ``{value, tolerance_pct}``, else 20 %) may be calibrated, once, as a step that
+        competes with the effects (``gearbench.identify.calibration``); the report's
+        ``calibration``.
 
     Returns
     -------

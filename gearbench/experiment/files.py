@@ -258,10 +258,10 @@ TOLERANCE = Number("%", low=0.0, low_strict=False, high=100.0)
 
 def _split_tolerances(raw: Any, section: str, where: str, fields: Mapping,
                       problems: list[str]) -> tuple[Any, dict[str, float], set]:
-    """A section's mapping with each ``key: {value: V, tolerance_pct: T}`` read as ``key: V``,
-    ``{"section.key": T}`` and the keys whose mapping was wrong (reported here): a datasheet value and how far (%) the real one may be from it (diagnose
-    and fit calibrate within it; 0 holds the value exactly).  Only the values gearbench can
-    calibrate (``FITTABLE``) take one."""
+    """A section's mapping with each ``key: {value: V, tolerance_pct: T}`` (a datasheet value and
+    how far, %, the real one may be from it; calibration stays within it, 0 holds the value)
+    read as ``key: V``; ``{"section.key": T}``; and the keys whose mapping was wrong (their
+    problems recorded here).  Only the values gearbench can calibrate (``FITTABLE``) take one."""
     if not isinstance(raw, Mapping):
         return raw, {}, set()
     out, tol, bad = dict(raw), {}, set()

@@ -49,7 +49,7 @@ import numpy as np
 from ..plant.components import FITTABLE, Plant
 from .fit import Free, Scorer, param_value, set_values
 from .replay import Replay, ReplayError
-from .uncertainty import central_jacobian
+from .uncertainty import central_jacobian, correlation, standard_errors
 
 DATASHEET_TOLERANCE_PCT = {
     "motor.resistance": 20.0, "motor.torque_constant": 20.0, "motor.back_emf_constant": 20.0,
@@ -96,15 +96,22 @@ class Plan:
         return out
 
 
+def _present(plant: Plant) -> list[str]:
+    """The values gearbench can fit (``FITTABLE``) that this plant has, nonzero (0: nothing to scale)."""
+    out = []
+    for path in FITTABLE:
+        section, key = path.split(".")
+        comp = getattr(plant, section)
+        if comp is not None and getattr(comp, key, None):
+            out.append(path)
+    return out
+
+
 def tolerances(plant: Plant) -> dict[str, float]:
     """The tolerance (%) of every value that calibration may move: the file's, else the
     datasheet default; values of 0 (nothing to scale) and tolerances of 0 are left out."""
     out = {}
-    for path in FITTABLE:
-        section, key = path.split(".")
-        comp = getattr(plant, section)
-        if comp is None or getattr(comp, key, None) is None or not getattr(comp, key):
-            continue
+    for path in _present(plant):
         pct = plant.tolerance_pct(path)
         pct = DATASHEET_TOLERANCE_PCT.get(path) if pct is None else pct
         if pct:
@@ -115,14 +122,7 @@ def tolerances(plant: Plant) -> dict[str, float]:
 def _others(plant: Plant, tol: dict[str, float]) -> list[str]:
     """The values gearbench can fit that calibration leaves alone (no tolerance), nonzero,
     and not held exactly by the file (``tolerance_pct: 0``)."""
-    out = []
-    for path in FITTABLE:
-        section, key = path.split(".")
-        comp = getattr(plant, section)
-        if path in tol or comp is None or not getattr(comp, key, None) or plant.tolerance_pct(path) == 0:
-            continue
-        out.append(path)
-    return out
+    return [p for p in _present(plant) if p not in tol and plant.tolerance_pct(p) != 0]
 
 
 def _frees(plant: Plant, tol: dict[str, float]) -> list[Free]:
@@ -181,14 +181,10 @@ def plan(plant: Plant, replay: Replay, scorer: Scorer) -> Plan:
 
 def _bound(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Standard errors ``sqrt(diag((J^T J)^-1))`` and correlations at unit residual variance
-    (inf and NaN where ``J^T J`` is singular)."""
+    (NaN where ``J^T J`` is singular or a variance comes out negative)."""
     k = jac.shape[1]
     try:
         cov = np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError:
-        return np.full(k, math.inf), np.full((k, k), math.nan)
-    d = np.diag(cov)
-    sigma = np.where(d > 0, np.sqrt(np.abs(d)), math.inf)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(sigma, sigma)
-    return sigma, corr
+        return np.full(k, math.nan), np.full((k, k), math.nan)
+    return standard_errors(cov), correlation(cov)

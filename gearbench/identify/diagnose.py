@@ -468,15 +468,8 @@ def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant
             continue
         effects = list(res.plant.effects)
         effects[i] = AddedEffect(*simpler)
-        trial = replace(res.plant, effects=tuple(effects))
-        frees = plant_frees(trial, free_plant)
-        for j in added:
-            frees += Free.effect(trial, j)
-        try:
-            r = fit(replay, trial, frees, scorer)
-        except (ReplayError, ValueError):
-            continue
-        if r.converged and r.bic <= res.bic:
+        r = _refit(replay, scorer, replace(res.plant, effects=tuple(effects)), free_plant, added)
+        if r is not None and r.bic <= res.bic:
             notes.append((i, e.name, simpler[0], res.bic - r.bic))
             res = r
     return res, notes
@@ -491,12 +484,18 @@ def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> 
     """The model of ``res`` without effect ``i``, the other ladder effects (numbers
     ``first`` on) and the free plant parameters refitted from where they are."""
     effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
-    trial = replace(res.plant, effects=effects)
-    frees = plant_frees(trial, free_plant)
-    for j in range(first, len(effects)):
-        frees += Free.effect(trial, j)
+    return _refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)))
+
+
+def _refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = False) -> FitResult | None:
+    """``plant`` with the free plant values ``free_plant`` (paths or ``Free``s) and the parameters
+    of the effects numbered in ``effects`` fitted jointly (scored as it is when there are none);
+    None when it cannot be simulated or does not converge.  ``central``: see :func:`fit`."""
+    frees = plant_frees(plant, free_plant)
+    for j in effects:
+        frees += Free.effect(plant, j)
     try:
-        r = fit(replay, trial, frees, scorer) if frees else evaluate(replay, scorer, trial)
+        r = fit(replay, plant, frees, scorer, central=central) if frees else evaluate(replay, scorer, plant)
     except (ReplayError, ValueError):
         return None
     return r if r.converged else None
@@ -527,24 +526,10 @@ def _prune(replay, scorer, res: FitResult, first: int, free_plant) -> list[tuple
 @dataclass
 class CalibrationStep:
     """The plant's datasheet values calibrated (``calibration.plan``'s), after ``after`` ladder
-    steps: the model before, after, and the best effect it beat."""
+    steps: the model before and after."""
     after: int
     before: FitResult
     result: FitResult
-    rival: Tried | None
-
-
-def _calibrate(replay, scorer, plant: Plant, frees, added: tuple[int, ...]) -> FitResult | None:
-    """``plant`` with ``frees`` (the free and calibrated plant values) and the effects numbered
-    in ``added`` fitted jointly; None when it does not converge."""
-    trial = plant_frees(plant, frees)
-    for i in added:
-        trial += Free.effect(plant, i)
-    try:
-        r = fit(replay, plant, trial, scorer, central=True)
-    except (ReplayError, ValueError):
-        return None
-    return r if r.converged else None
 
 
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
@@ -624,10 +609,10 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
             first_tried = tried
         best = tried[0] if tried and tried[0].ok else None
         if cal.frees and cal_step is None:
-            cal_res = _calibrate(replay, scorer, current, refitted + tuple(cal.frees), added)
+            cal_res = _refit(replay, scorer, current, refitted + tuple(cal.frees), added, central=True)
             if cal_res is not None and _accepts(current_res, cal_res) and (
                     best is None or not _accepts(current_res, best.result) or cal_res.bic <= best.result.bic):
-                cal_step = CalibrationStep(len(ladder), current_res, cal_res, best)
+                cal_step = CalibrationStep(len(ladder), current_res, cal_res)
                 refitted += tuple(cal.frees)
                 current, current_res = cal_res.plant, cal_res
                 prune("the calibration")

@@ -271,9 +271,11 @@ def ladder_figure(steps: Sequence[Mapping], noise_floor: float | None = None, un
 
 
 def _calibration_line(name: str, c: Mapping) -> str:
-    """``motor.resistance 1.21 -> 1.1 +- 0.0003 ohm (tolerance 20 %)`` or ``... held: why``."""
+    """``motor.resistance 1.21 -> 1.1 +- 0.0003 ohm (tolerance 20 %)``, or the file's value and
+    why it stayed (``held``: the record cannot resolve it; ``file value``: calibrating did not pay)."""
     if c["status"] != "calibrated":
-        return f"{name} {c['nominal']:.4g} {c['unit']}: held at the file's value"
+        why = "held, the record cannot resolve it" if c["status"] == "held" else "calibrating did not pay"
+        return f"{name} {c['nominal']:.4g} {c['unit']}: the file's value ({why})"
     se = c.get("stderr")
     return (f"{name} {c['nominal']:.4g} -> {c['value']:.4g}" + (f" +- {se:.2g}" if se is not None else "")
             + f" {c['unit']} (tolerance {c['tolerance_pct']:g} %)")
