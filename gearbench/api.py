@@ -40,6 +40,7 @@ from .plant.components import Plant
 from .profiles import Profile, load_profile
 from .simulate import MAX_SAMPLES, RunResult, Segments, SolverError, SolverOptions, failure_message
 from .simulate import simulate as _simulate
+from .blas import single_threaded
 
 __all__ = ["setpoint", "load_measurement", "simulate", "run_experiment", "compare", "diagnose", "fit",
            "Simulation", "Comparison", "DiagnosisReport", "FitReport"]
@@ -719,6 +720,11 @@ class DiagnosisReport:
         return self.diagnosis.reason
 
     @property
+    def stopped(self) -> str:
+        """Why the ladder ended: "noise floor", "nothing pays", "max steps", "time limit" or "interrupted"."""
+        return self.diagnosis.stopped
+
+    @property
     def plant(self) -> Plant:
         """The plant with every effect the ladder added, fitted."""
         return self.diagnosis.plant
@@ -774,7 +780,8 @@ class DiagnosisReport:
 def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
              controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
              free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
-             workers: int | None = 1, calibrate: bool = True) -> DiagnosisReport:
+             workers: int | None = 1, calibrate: bool = True, time_limit_s: float | None = None,
+             progress=None) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -802,6 +809,13 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         ``{value, tolerance_pct}``, else 20 %) may be calibrated, once, as a step that
         competes with the effects (``gearbench.identify.calibration``); the report's
         ``calibration``.
+    time_limit_s : float, optional
+        Start no new rung after this many seconds, s (the rung that crosses it finishes;
+        ``to_dict()["stopped"]`` is then ``"time limit"``).
+    progress : callable, optional
+        Called with a ``gearbench.identify.diagnose.ProgressEvent`` (step, stage, fits done
+        and to do, the fit just finished, the best so far, seconds elapsed) as each stage
+        starts and each fit finishes.
 
     Returns
     -------
@@ -812,6 +826,9 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     ------
     ConfigError, MeasurementError, ReplayError
         As :func:`compare`; an unknown effect in ``only`` is named.
+    gearbench.identify.diagnose.DiagnosisInterrupted
+        On Ctrl-C during the ladder (a ``KeyboardInterrupt``): its ``diagnosis`` is the
+        ladder so far.
 
     Examples
     --------
@@ -828,6 +845,10 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     Number("steps", integer=True).check(max_steps, "max_steps", problems)
     if workers is not None:
         Number("processes", integer=True).check(workers, "workers", problems)
+    if time_limit_s is not None:
+        Number("s", low_strict=False).check(time_limit_s, "time_limit_s", problems)
+    if progress is not None and not callable(progress):
+        problems.append(f"progress must be callable, got {show(progress)}")
     for key, seq in (("free", free), ("only", only)):
         if isinstance(seq, str) or not all(isinstance(s, str) for s in seq):
             problems.append(f"{key} must be a sequence of strings, got {show(seq)}")
@@ -840,9 +861,10 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
     return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only),
-                                     calibrate=bool(calibrate)))
+                                     calibrate=bool(calibrate), time_limit_s=time_limit_s, progress=progress))
 
 
+@single_threaded
 def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = None,
                    start: Mapping | None = None, free: Sequence[str] = (), refit: bool = False,
                    max_evals: int | None = None, calibrate: bool = False) -> list:

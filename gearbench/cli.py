@@ -1,7 +1,14 @@
 """The ``gearbench`` command line (click)."""
 from __future__ import annotations
 
+import os
 import sys
+
+# Before numpy loads: one OpenBLAS (MKL) thread in this process and the workers it forks.  gearbench calls
+# BLAS only on tiny arrays, where OpenBLAS's threads cost more than they do; once loaded, a library
+# keeps the threads it started even when limited later (``gearbench.blas``).  A user's setting wins.
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 from dataclasses import replace
 from pathlib import Path
 

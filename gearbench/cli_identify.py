@@ -4,12 +4,13 @@ from __future__ import annotations
 import json
 import math
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import click
 from rich.table import Table
 
-from .cli_common import EXIT_FAILED, _fail, console, echo_json, stdout
+from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, stdout
 
 
 _common = [
@@ -175,7 +176,11 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                    "a step that competes with the effects by the same criterion, not an effect; values the "
                    "record cannot resolve are held.")
 @click.option("--max-steps", type=int, default=4, show_default=True, help="Longest ladder.")
+@click.option("--time-limit", "time_limit_s", type=click.FloatRange(min=0.0), default=None, metavar="SECONDS",
+              help="Start no new rung after SECONDS (the rung that crosses it finishes); the JSON's 'stopped' "
+                   "is then \"time limit\".")
 @click.option("--workers", type=int, default=None, help="Processes (default: all cores).")
+@click.option("--quiet", is_flag=True, help="No progress display (for scripts; --json implies nothing else on stdout).")
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True,
@@ -187,9 +192,10 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                    "and a message), verdict, ladder.  Every 'error' is the RMS of the primary signal's residual (measured - "
                    "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
                    "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
-                   "(e.g. the drive force) in closed loop.")
-def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, calibrate, max_steps, workers,
-             results, as_json):
+                   "(e.g. the drive force) in closed loop.  'stopped' says why the ladder ended: \"noise floor\", "
+                   "\"nothing pays\", \"max steps\" or \"time limit\".")
+def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, calibrate, max_steps, time_limit_s,
+             workers, quiet, results, as_json):
     """Which physical effect is the model missing?
 
     Fits every effect of the library that the plant lacks, in every place it
@@ -203,22 +209,26 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     refit, diagnose again, until nothing more pays.  The verdict is null when
     the model already explains the record down to its noise, or when no
     candidate explains the residual.
-    """
-    from rich.progress import Progress
 
-    from .identify.diagnose import candidates, diagnose as run_diagnosis
+    A progress display on stderr follows the whole ladder: the step, the stage (candidates, joint
+    refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
+    cleanly: the ladder so far is printed and the exit status is 130.
+    """
+    from .identify.diagnose import DiagnosisInterrupted, diagnose as run_diagnosis
     from .report.compare import ladder_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
         names = tuple(n.strip() for n in only.split(",") if n.strip())
-        n_cand = len(candidates(plant, replay, names))
-        with Progress(console=console, transient=True, disable=as_json) as bar:
-            task = bar.add_task("fitting candidates (ladder step 1)", total=n_cand)
-            d = run_diagnosis(plant, replay, tuple(free), max_steps, workers,
-                              progress=lambda t: bar.advance(task), only=names, calibrate=calibrate)
+        with _ladder_progress(disable=quiet or as_json) as show:
+            d = run_diagnosis(plant, replay, tuple(free), max_steps, workers, progress=show, only=names,
+                              calibrate=calibrate, time_limit_s=time_limit_s)
     except _errors() as exc:
         _fail(exc)
+    except DiagnosisInterrupted as stop:
+        _print_ladder(stop.diagnosis, console, {})
+        interrupted(f"during ladder step {len(stop.diagnosis.ladder) + 1}; the ladder so far is above, "
+                    "no file was written")
     j = d.to_json()
     out = _out_dir(results, "diagnose", plant_file, data_file)
     cal = j["calibration"]
@@ -254,19 +264,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         tab.add_row(t.candidate.label(), pars if t.ok else t.note[:60],
                     f"{t.result.error:.4g}" if t.ok else "—", f"{t.result.bic:.6g}" if t.ok else "—")
     stdout().print(tab)
-    lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
-    for col in ("step", "effect", "parameters", "error"):
-        lad.add_column(col)
-    lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
-    for i, s in _rows(d):
-        if i is None:
-            lad.add_row("", "(datasheet values calibrated)", ", ".join(
-                f"{k} = {c['value']:.4g}" for k, c in cal.items() if c["status"] == "calibrated"), f"{s:.4g}")
-            continue
-        lad.add_row(str(i), ("taken out: " if s.action == "remove" else "")
-                    + s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
-                    ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
-    stdout().print(lad)
+    _print_ladder(d, stdout(), cal)
     stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
     for k, c in cal.items():
         if c["status"] == "held":
@@ -280,6 +278,42 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     if d.ladder:
         stdout().print(f"stopped: {d.reason}")
     console.print(f"figures and tables in {out}/")
+
+
+def _print_ladder(d, where, cal: dict) -> None:
+    """The ladder as a table on console ``where``: the baseline, each rung, the calibration."""
+    lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
+    for col in ("step", "effect", "parameters", "error"):
+        lad.add_column(col)
+    lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
+    for i, s in _rows(d):
+        if i is None:
+            lad.add_row("", "(datasheet values calibrated)", ", ".join(
+                f"{k} = {c['value']:.4g}" for k, c in cal.items() if c["status"] == "calibrated"), f"{s:.4g}")
+            continue
+        lad.add_row(str(i), ("taken out: " if s.action == "remove" else "")
+                    + s.effect + (f" ({', '.join(s.options.values())})" if s.options else ""),
+                    ", ".join(f"{k} = {v:.4g}" for k, v in s.params.items()), f"{s.error:.4g}")
+    where.print(lad)
+
+
+@contextmanager
+def _ladder_progress(disable: bool):
+    """A rich progress display of the whole ladder on stderr; yields the callback ``diagnose`` takes
+    (:class:`gearbench.identify.diagnose.ProgressEvent`), None when ``disable``."""
+    if disable:
+        yield None
+        return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), TextColumn("{task.fields[best]}"), console=console, transient=True) as bar:
+        task = bar.add_task("diagnose", total=None, best="")
+
+        def show(e):
+            what = f"step {e.step}: {e.stage}" + (f", {e.label}" if e.label else "")
+            bar.update(task, description=what, completed=e.done, total=e.total or None,
+                       best=f"best so far: {e.best}" if e.best else "")
+        yield show
 
 
 def _rows(d):

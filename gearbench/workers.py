@@ -39,6 +39,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Iterator
 
+from .blas import limit_this_process
+
 POLL_S = 0.2
 """Period of the fallback parent watch, s (a worker outlives its parent by at most this)."""
 
@@ -90,8 +92,10 @@ def _watch_parent(parent_pid: int) -> None:
 
 
 def _init_worker(parent_pid: int, watch: str) -> None:
-    """Worker initializer: ignore SIGINT, and die with the parent (see the module's text)."""
+    """Worker initializer: ignore SIGINT, one BLAS thread (``gearbench.blas``), and die with the
+    parent (see the module's text)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    limit_this_process()  # tiny BLAS calls on two threads per worker oversubscribe the cores (blas.py)
     armed = watch == "auto" and _arm_death_signal()
     if os.getppid() != parent_pid:  # the parent died before the death signal was armed
         _kill_self()

@@ -792,8 +792,8 @@ def run_study(results: str | Path, data_dir: str | Path | None = None, workers: 
         log("ladder over the whole effect library on train (slow)")
         t0 = time.perf_counter()
         lib = run_ladder(runs, ctrl, only=(), workers=workers,
-                         progress=lambda t: log(f"  tried {t.candidate.label()}: "
-                                                f"{'ok' if t.ok else 'failed'}"))
+                         progress=lambda e: e.done and log(f"  step {e.step}, {e.stage} {e.done}/{e.total}: "
+                                                           f"{e.label} (best so far: {e.best or 'none'})"))
         lib["validation_force_error_pct"] = score(lib["plant"], runs.validation, ctrl)
         timings["library_ladder_s"] = time.perf_counter() - t0
 

@@ -46,7 +46,9 @@ The verdict is the first effect added that is still in the model at the end.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
@@ -55,6 +57,8 @@ from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees
 from .replay import Replay, ReplayError
 from . import calibration, search
 from .uncertainty import strong_correlations
+from ..blas import single_threaded
+from ..interrupts import is_interrupt
 from ..workers import process_pool, worker_count
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
@@ -91,6 +95,9 @@ class Tried:
     @property
     def ok(self) -> bool:
         return self.result is not None and self.result.converged and math.isfinite(self.result.error)
+
+    def label(self) -> str:
+        return self.candidate.label()
 
 
 def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list[Candidate]:
@@ -145,6 +152,7 @@ def _start_values(plant: Plant, cand: Candidate) -> dict:
     return values
 
 
+@single_threaded
 def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
                   free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = (),
                   start: dict | None = None, max_nfev: int | None = None) -> Tried:
@@ -242,6 +250,7 @@ def _pairable(a: Tried, b: Tried) -> bool:
     return True
 
 
+@single_threaded
 def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second: Tried,
              free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
     """Fit two candidates jointly (with the free plant parameters and the effects numbered in
@@ -268,7 +277,7 @@ def _run_pair(args):
     return try_pair(*args)
 
 
-def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers) -> list[Pair]:
+def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers, track: _Tracker) -> list[Pair]:
     """Every pairable pair (:func:`_pairable`) of the best places of the ``PAIR_TOP`` best effects,
     fitted jointly (the best few candidates are often one effect in several places)."""
     top = []
@@ -278,7 +287,72 @@ def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers) -> list
     top = top[:PAIR_TOP]
     jobs = [(replay, scorer, plant, a, b, free_plant, refit)
             for i, a in enumerate(top) for b in top[i + 1:] if _pairable(a, b)]
-    return _map(_run_pair, jobs, workers, None)
+    return _map(_run_pair, jobs, workers, track.stage("pairs", len(jobs)))
+
+
+STOPPED = ("noise floor", "nothing pays", "max steps", "time limit", "interrupted")
+"""Why a ladder ends (``Diagnosis.stopped``): the model explains the record down to its noise; no
+candidate pays; ``max_steps`` rungs; the ``time_limit_s`` was crossed (after the rung that crossed
+it); Ctrl-C (:class:`DiagnosisInterrupted`)."""
+STAGES = ("baseline", "calibration plan", "candidates", "joint refit", "calibration", "pairs", "simplify",
+          "prune")
+"""The stages of one rung, in order (``ProgressEvent.stage``); the first two come once, before the first."""
+
+
+@dataclass(frozen=True)
+class ProgressEvent:
+    """Where a diagnosis is, for a progress display: ``diagnose(progress=f)`` calls ``f(event)``
+    when a stage starts (``done`` 0) and after each fit of it.
+
+    step: the ladder step being decided (1 = the first rung); stage: one of :data:`STAGES`;
+    done, total: fits finished and to do in this stage; label: the fit just finished, e.g.
+    ``"coulomb_friction (load)"``; best: the best fit of this stage so far, its label and
+    weighted RMS (x the noise floors), "" before the first; elapsed_s: since the diagnosis
+    started, s."""
+    step: int
+    stage: str
+    done: int
+    total: int
+    label: str = ""
+    best: str = ""
+    elapsed_s: float = 0.0
+
+
+class _Tracker:
+    """Sends :class:`ProgressEvent` s to a callback (none: does nothing) and keeps the clock."""
+
+    def __init__(self, callback: Callable[[ProgressEvent], None] | None):
+        self.callback, self.t0, self.step = callback, time.perf_counter(), 1
+
+    @property
+    def elapsed_s(self) -> float:
+        return time.perf_counter() - self.t0
+
+    def stage(self, name: str, total: int = 1, label: str = ""):
+        """Announce stage ``name`` of ``total`` fits; returns the callback ``_map`` calls with each
+        finished :class:`Tried` or :class:`Pair` (None without a callback)."""
+        if self.callback is None:
+            return None
+        done, best = 0, None
+        self.callback(ProgressEvent(self.step, name, 0, total, label, "", self.elapsed_s))
+
+        def each(item):
+            nonlocal done, best
+            done += 1
+            if item.ok and (best is None or item.result.bic < best[0]):
+                best = (item.result.bic, f"{item.label()} at {item.result.weighted_rms:.3g}x noise")
+            self.callback(ProgressEvent(self.step, name, done, total, item.label(), best[1] if best else "",
+                                        self.elapsed_s))
+        return each
+
+
+class DiagnosisInterrupted(KeyboardInterrupt):
+    """Ctrl-C during the ladder: ``diagnosis`` is the ladder as far as it got (its ``stopped`` is
+    ``"interrupted"``).  A KeyboardInterrupt, so code that does not look for it stops as before."""
+
+    def __init__(self, diagnosis: "Diagnosis"):
+        super().__init__("diagnosis interrupted")
+        self.diagnosis = diagnosis
 
 
 @dataclass
@@ -316,6 +390,7 @@ class Diagnosis:
     baseline_relative_pct: float
     calibration: dict = field(default_factory=dict)  # calibration.Plan.report of the final model
     calibration_step: CalibrationStep | None = None
+    stopped: str = ""  # why the ladder ended: one of STOPPED
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -341,6 +416,7 @@ class Diagnosis:
         ``file value``, calibration did not pay), with a ``message``;
         ``calibration_step``: when calibration paid, after how many ladder steps, the error
         after it and its BIC change, else null.
+        ``stopped``: why the ladder ended, one of :data:`STOPPED` (``reason`` says it in words).
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
@@ -363,6 +439,7 @@ class Diagnosis:
             "candidates": [cand(t) for t in self.tried],
             "verdict": self.verdict,
             "reason": self.reason,
+            "stopped": self.stopped,
             "baseline_relative_error_pct": self.baseline_relative_pct,
             "ladder": [{"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
                         "params": s.params, "stderr": s.stderr, "error": s.error,
@@ -435,13 +512,13 @@ def _accepts(current: FitResult, new: FitResult) -> bool:
             and new.weighted_rms < (1.0 - MIN_ERROR_DROP) * current.weighted_rms)
 
 
-def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers):
+def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers, track):
     """The pair of lowest BIC (:func:`_fit_pairs`) when it beats both the current model and the
     best single candidate by :func:`_accepts`; None when none does, or when the best single
     already explains the record down to its noise (nothing left for a pair to resolve)."""
     if best.result.weighted_rms <= AT_NOISE or current_res.weighted_rms <= AT_NOISE:
         return None
-    pairs = [p for p in _fit_pairs(replay, scorer, current, tried, free_plant, added, workers) if p.ok]
+    pairs = [p for p in _fit_pairs(replay, scorer, current, tried, free_plant, added, workers, track) if p.ok]
     if not pairs:
         return None
     pair = min(pairs, key=lambda p: p.result.bic)
@@ -532,9 +609,10 @@ class CalibrationStep:
     result: FitResult
 
 
+@single_threaded
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
-             workers: int | None = None, progress=None, only: tuple[str, ...] = (),
-             calibrate: bool = True) -> Diagnosis:
+             workers: int | None = None, progress: Callable[[ProgressEvent], None] | None = None,
+             only: tuple[str, ...] = (), calibrate: bool = True, time_limit_s: float | None = None) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
 
     Each rung fits every candidate with the effects added so far held (cheap),
@@ -553,10 +631,17 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     the effects already added refitted; from then on they are refitted with
     every joint refit.  A calibration is not a verdict, and the effects that no
     longer pay once it is in are taken out.
+
+    progress: called with a :class:`ProgressEvent` as each stage starts and each fit
+    finishes; time_limit_s: no new rung is started once this many seconds have passed
+    (the rung that crosses it finishes; ``stopped`` is ``"time limit"``).  Ctrl-C during the
+    ladder raises :class:`DiagnosisInterrupted`, which carries the ladder so far.
     """
     unknown = [n for n in only if n not in REGISTRY]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(REGISTRY)}")
+    track = _Tracker(progress)
+    track.stage("baseline")
     scorer = Scorer(replay)
     frees = plant_frees(plant, free_plant)
     base = fit(replay, plant, frees, scorer) if frees else evaluate(replay, scorer, plant)
@@ -564,6 +649,8 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
         raise ReplayError(f"the baseline fit of {', '.join(free_plant)} did not converge: {base.message}")
     unit = replay.data.signal_unit(scorer.primary) if scorer.primary in replay.data.signals else \
         replay.data.input_unit
+    if calibrate:
+        track.stage("calibration plan")
     cal = calibration.plan(plant, replay, scorer) if calibrate else calibration.Plan()
     cal_step: CalibrationStep | None = None
     refitted = tuple(free_plant)  # the calibrated values join once calibration has paid
@@ -571,10 +658,11 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     ladder: list[Step] = []
     rungs: list[int] = []  # the ladder step that added each effect of the model past the plant's own
     first_tried: list[Tried] = []
-    reason = ""
+    reason, stopped = "", "max steps"
 
     def prune(after: str):
         nonlocal current, current_res
+        track.stage("prune", max(0, len(current_res.plant.effects) - len(plant.effects)))
         for gone, without, gain in _prune(replay, scorer, current_res, len(plant.effects), refitted):
             rungs.pop(current_res.plant.effects.index(gone) - len(plant.effects))
             opts = {k: v for k, v in gone.values.items() if isinstance(v, str)}
@@ -589,90 +677,115 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
                                action="remove"))
             current, current_res = without.plant, without
 
+    def _result() -> Diagnosis:
+        verdict = ladder[rungs[0]].effect if rungs else None
+        return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
+                         reason, current, base, base.plant, scorer.relative_pct(base.sim),
+                         cal.report(current, current_res.stderr, cal_step is not None), cal_step, stopped)
+
     step = 0
-    while step < max_steps:
-        if (ladder or cal_step) and current_res.weighted_rms <= AT_NOISE:
-            reason = (f"after {len(ladder)} step(s){' and the calibration' if cal_step else ''} the model "
-                      f"explains the record down to its noise: error {current_res.error:.4g} {unit} against a "
-                      f"noise floor of {scorer.noise_floor:.4g} {unit} (all signals: "
-                      f"{current_res.weighted_rms:.3g}x their noise floors)")
-            break
-        added = tuple(range(len(plant.effects), len(current.effects)))
-        # screened with the calibrated values held (cheap); the best few refitted with them below
-        tried = _rank(_fit_all(replay, scorer, current, candidates(current, replay, only), free_plant,
-                               (), workers, progress))
-        if added:
-            top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
-            joint = _fit_all(replay, scorer, current, top, refitted, added, workers, None)
-            tried = _rank(joint + tried[len(top):])
-        if not first_tried:
-            first_tried = tried
-        best = tried[0] if tried and tried[0].ok else None
-        if cal.frees and cal_step is None:
-            cal_res = _refit(replay, scorer, current, refitted + tuple(cal.frees), added, central=True)
-            if cal_res is not None and _accepts(current_res, cal_res) and (
-                    best is None or not _accepts(current_res, best.result) or cal_res.bic <= best.result.bic):
-                cal_step = CalibrationStep(len(ladder), current_res, cal_res)
-                refitted += tuple(cal.frees)
-                current, current_res = cal_res.plant, cal_res
-                prune("the calibration")
-                continue  # not a rung: the effects are tried again on the calibrated plant
-        if best is None or not _accepts(current_res, best.result):
-            if best is None:
-                gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
+    try:
+        while step < max_steps:
+            track.step = len(ladder) + 1
+            if (ladder or cal_step) and current_res.weighted_rms <= AT_NOISE:
+                reason = (f"after {len(ladder)} step(s){' and the calibration' if cal_step else ''} the model "
+                          f"explains the record down to its noise: error {current_res.error:.4g} {unit} against a "
+                          f"noise floor of {scorer.noise_floor:.4g} {unit} (all signals: "
+                          f"{current_res.weighted_rms:.3g}x their noise floors)")
+                stopped = "noise floor"
+                break
+            if time_limit_s is not None and (ladder or cal_step) and track.elapsed_s > time_limit_s:
+                reason = (f"stopped by the time limit: {track.elapsed_s:.0f} s had passed (time limit "
+                          f"{time_limit_s:g} s) after {len(ladder)} step(s); error {current_res.error:.4g} {unit}, "
+                          f"{current_res.weighted_rms:.3g}x the noise floors")
+                stopped = "time limit"
+                break
+            added = tuple(range(len(plant.effects), len(current.effects)))
+            # screened with the calibrated values held (cheap); the best few refitted with them below
+            cands = candidates(current, replay, only)
+            tried = _rank(_fit_all(replay, scorer, current, cands, free_plant, (), workers,
+                                   track.stage("candidates", len(cands))))
+            if added:
+                top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
+                joint = _fit_all(replay, scorer, current, top, refitted, added, workers,
+                                 track.stage("joint refit", len(top)))
+                tried = _rank(joint + tried[len(top):])
+            if not first_tried:
+                first_tried = tried
+            best = tried[0] if tried and tried[0].ok else None
+            if cal.frees and cal_step is None:
+                track.stage("calibration")
+                cal_res = _refit(replay, scorer, current, refitted + tuple(cal.frees), added, central=True)
+                if cal_res is not None and _accepts(current_res, cal_res) and (
+                        best is None or not _accepts(current_res, best.result) or cal_res.bic <= best.result.bic):
+                    cal_step = CalibrationStep(len(ladder), current_res, cal_res)
+                    refitted += tuple(cal.frees)
+                    current, current_res = cal_res.plant, cal_res
+                    prune("the calibration")
+                    continue  # not a rung: the effects are tried again on the calibrated plant
+            if best is None or not _accepts(current_res, best.result):
+                if best is None:
+                    gain = "no candidate is left to try" if not tried else "no candidate could be fitted"
+                else:
+                    gain = (f"the best, {best.candidate.label()}, would take the error to "
+                            f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - current_res.bic:+.1f}, "
+                            f"weighted RMS {current_res.weighted_rms:.4g} -> {best.result.weighted_rms:.4g}; an "
+                            f"added effect must lower the BIC by more than {MIN_BIC_DROP:g} and the weighted RMS "
+                            f"by {MIN_ERROR_DROP:.0%})")
+                calibrated = " once its datasheet values are calibrated" if cal_step else ""
+                stopped = "noise floor" if current_res.weighted_rms <= AT_NOISE else "nothing pays"
+                if step > 0:
+                    reason = f"after {len(ladder)} step(s) nothing more pays: {gain}"
+                elif current_res.weighted_rms <= AT_NOISE:
+                    reason = (f"the model explains the record down to its noise{calibrated}: error "
+                              f"{current_res.error:.4g} {unit} against a noise floor of {scorer.noise_floor:.4g} {unit} "
+                              f"(all signals: {current_res.weighted_rms:.3g}x their noise floors); {gain}")
+                else:
+                    reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
+                              f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
+                              f"{unit}){calibrated} and {gain}; the missing physics is not in the library")
+                break
+            pair = _better_pair(replay, scorer, current, current_res, best, tried, refitted, added, workers,
+                                track) if len(ladder) + 2 <= max_steps else None
+            track.stage("simplify")
+            if pair is None:
+                text = explain(replay, scorer, current_res, best, tried)
+                fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
             else:
-                gain = (f"the best, {best.candidate.label()}, would take the error to "
-                        f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - current_res.bic:+.1f}, "
-                        f"weighted RMS {current_res.weighted_rms:.4g} -> {best.result.weighted_rms:.4g}; an "
-                        f"added effect must lower the BIC by more than {MIN_BIC_DROP:g} and the weighted RMS "
-                        f"by {MIN_ERROR_DROP:.0%})")
-            calibrated = " once its datasheet values are calibrated" if cal_step else ""
-            if step > 0:
-                reason = f"after {len(ladder)} step(s) nothing more pays: {gain}"
-            elif current_res.weighted_rms <= AT_NOISE:
-                reason = (f"the model explains the record down to its noise{calibrated}: error "
-                          f"{current_res.error:.4g} {unit} against a noise floor of {scorer.noise_floor:.4g} {unit} "
-                          f"(all signals: {current_res.weighted_rms:.3g}x their noise floors); {gain}")
-            else:
-                reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
-                          f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
-                          f"{unit}){calibrated} and {gain}; the missing physics is not in the library")
-            break
-        pair = _better_pair(replay, scorer, current, current_res, best, tried, refitted, added, workers) \
-            if len(ladder) + 2 <= max_steps else None
-        if pair is None:
-            text = explain(replay, scorer, current_res, best, tried)
-            fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
-        else:
-            first, second = pair.first, pair.as_second()
-            ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
-                               first.result.error, scorer.relative_pct(first.result.sim), first.result.bic,
-                               *_model(first.result.plant, refitted),
-                               explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best),
-                               correlations=_correlated(first.result)))
+                first, second = pair.first, pair.as_second()
+                ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
+                                   first.result.error, scorer.relative_pct(first.result.sim), first.result.bic,
+                                   *_model(first.result.plant, refitted),
+                                   explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best),
+                                   correlations=_correlated(first.result)))
+                rungs.append(len(ladder) - 1)
+                best = second
+                text = explain(replay, scorer, first.result, second) + (
+                    f" Fitted jointly with {first.candidate.label()} (the pair's rung before).")
+                fitted, notes = _simplify(replay, scorer, pair.result, added + (len(current.effects),
+                                                                                 len(current.effects) + 1), refitted)
+            ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
+                               fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
+                               *_model(fitted.plant, refitted),
+                               text, correlations=_correlated(best.result)))
             rungs.append(len(ladder) - 1)
-            best = second
-            text = explain(replay, scorer, first.result, second) + (
-                f" Fitted jointly with {first.candidate.label()} (the pair's rung before).")
-            fitted, notes = _simplify(replay, scorer, pair.result, added + (len(current.effects),
-                                                                             len(current.effects) + 1), refitted)
-        ladder.append(Step(best.candidate.name, best.candidate.options, best.params, best.stderr,
-                           fitted.error, scorer.relative_pct(fitted.sim), fitted.bic,
-                           *_model(fitted.plant, refitted),
-                           text, correlations=_correlated(best.result)))
-        rungs.append(len(ladder) - 1)
-        for i, old, new, gain in notes:
-            rung = ladder[rungs[i - len(plant.effects)]]
-            e = fitted.plant.effects[i]
-            rung.effect = new
-            rung.params = {k: v for k, v in e.values.items() if not isinstance(v, str)}
-            rung.explanation += (f" Simplified at step {len(ladder)}: {new} explains as well as {old} once "
-                                 f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
-                                 "parameters do not pay.")
-        current, current_res = fitted.plant, fitted
-        prune(best.candidate.label())
-        step += 1
-    verdict = ladder[rungs[0]].effect if rungs else None
-    return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
-                     reason, current, base, base.plant, scorer.relative_pct(base.sim),
-                     cal.report(current, current_res.stderr, cal_step is not None), cal_step)
+            for i, old, new, gain in notes:
+                rung = ladder[rungs[i - len(plant.effects)]]
+                e = fitted.plant.effects[i]
+                rung.effect = new
+                rung.params = {k: v for k, v in e.values.items() if not isinstance(v, str)}
+                rung.explanation += (f" Simplified at step {len(ladder)}: {new} explains as well as {old} once "
+                                     f"the later effects are in (BIC lower by {gain:.1f}), so the extra "
+                                     "parameters do not pay.")
+            current, current_res = fitted.plant, fitted
+            prune(best.candidate.label())
+            step += 1
+        if step >= max_steps:
+            reason = (f"the ladder reached its longest, {max_steps} step(s) (max_steps); error "
+                      f"{current_res.error:.4g} {unit}, {current_res.weighted_rms:.3g}x the noise floors")
+    except BaseException as exc:
+        if not is_interrupt(exc):
+            raise
+        reason, stopped = f"interrupted during step {len(ladder) + 1}", "interrupted"
+        raise DiagnosisInterrupted(_result()) from None
+    return _result()

@@ -15,7 +15,7 @@ significant; the speeds, current and mesh state run on from the previous window.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -30,6 +30,14 @@ from . import signals as S
 DRIVES = {"voltage_V": "voltage", "drive_torque_Nm": "torque", "drive_force_N": "force"}
 RESET_SAMPLES = 21
 """Samples at the end of a window over which the model's drift is measured."""
+STEPS_PER_SAMPLE = 2000
+"""Step budget of a replay window per sample of the record (2 million for a 1 s window at 1 kHz),
+unless ``options.max_steps`` is smaller.  The most a replay that finished took, measured over every
+first-rung candidate fit on three records (the tutorial's, the 16 s hidden-backlash and the 4 s two-effect
+records of ``benchmarks/bench_ladder.py``), was 295,000 steps per simulated second (a stiff shaft
+compliance); stick-slip friction on the rotor of the bench rig written without clearance chatters at 1.5
+million, and with the solver's own budget (20 million steps a run) each such replay ran 50 s before
+failing."""
 
 
 class ReplayError(RuntimeError):
@@ -61,7 +69,8 @@ class Replay:
 
     controller: a closed-loop law (``control.sampled.SampledPV``) driven by the
     record's set point, or None for open loop; window_s: open-loop re-initialisation
-    interval, s (None: one window); options: solver options; start_moving: the
+    interval, s (None: one window); options: solver options (each window's step budget at most
+    :data:`STEPS_PER_SAMPLE` per sample); start_moving: the
     record starts in motion (EMPS's do), so the model starts at the measured speed
     (None: in closed loop, whose records are cut from a running machine).
     """
@@ -134,19 +143,19 @@ class Replay:
                 x[L.X_I] = (float(self.data.input[0]) - m.back_emf_constant * w * n) / m.resistance
         return x
 
-    def _reset_angles(self, x: np.ndarray, a: int, plant: Plant, out_prev: np.ndarray) -> bool:
+    def _reset_angles(self, x: np.ndarray, a: int, plant: Plant, out_prev: np.ndarray, motion) -> bool:
         """Move the angle states by the model's drift at sample ``a``, when it is significant.
 
         The drift is measured minus simulated position (output rad) over the last
         ``RESET_SAMPLES`` samples of the previous window (``out_prev``, its sampled outputs),
         fitted by a straight line in time and evaluated at sample ``a``, with that value's
-        standard error; the states move only past 5 standard errors, so a right model is
-        left alone.  The difference of two trajectories is
+        standard error (``motion``: :meth:`_motion`'s); the states move only past 5 standard
+        errors, so a right model is left alone.  The difference of two trajectories is
         smooth where the model is right, whatever the motion: a polynomial fit of the
         measurement alone is biased where the motion is not polynomial (a motor crossing
         the clearance at 33 rad/s in practice case p03: it moved a right model 0.35 deg and
         its motor-angle error went from 0.98x to 38x the noise).  True if it moved them."""
-        name, th = self._motion(plant)
+        name, th = motion
         m = min(RESET_SAMPLES, len(out_prev))
         if th is None or m < 3:
             return False
@@ -192,8 +201,16 @@ class Replay:
         Each boundary is the slowest sample within a quarter window of its
         nominal time: at rest the reset's straight-line fit is exact.  The last
         window is at least half a window long (a 16.11 s record once ended in one of
-        29 samples, too short for the residual tests' default lags).
+        29 samples, too short for the residual tests' default lags).  They depend on
+        the record alone (a plant scales the measured speed by a positive factor, which
+        moves no minimum), so they are found once per replay: smoothing the record's
+        speed at every run took 11 % of a diagnosis.
         """
+        if getattr(self, "_windows", None) is None:
+            self._windows = self._find_windows(plant)
+        return self._windows
+
+    def _find_windows(self, plant: Plant) -> list[tuple[int, int]]:
         n = len(self.t)
         if self.closed_loop or not self.window_s:
             return [(0, n)]
@@ -222,13 +239,15 @@ class Replay:
         outs = []
         seg_u = []
         self.reinitialised_s = []
+        motion = self._motion(plant) if len(self.windows(plant)) > 1 else None
         for a, b in self.windows(plant):
-            if a > 0 and self._reset_angles(x, a, plant, outs[-1]):
+            if a > 0 and self._reset_angles(x, a, plant, outs[-1], motion):
                 self.reinitialised_s.append(float(self.t[a]))
             segs = self._segments(plant, a, b)
             t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
             times = self.t[a:b] - self.t[a]
-            run = simulate_packed(p, sc, segs, max(t_end, times[-1]), x, self.options,
+            options = replace(self.options, max_steps=min(self.options.max_steps, STEPS_PER_SAMPLE * (b - a)))
+            run = simulate_packed(p, sc, segs, max(t_end, times[-1]), x, options,
                                   label, output_times=times)
             if not run.ok:
                 msg = failure_message(run, plant.name, plant)
