@@ -13,17 +13,33 @@ where the fits run, not numba's disk cache):
   processes on the loopback interface (``--scheduler``), the connection made
   before the clock starts; the shared record is scattered once per map.
 
+Every process runs BLAS on one thread (``OMP/MKL/OPENBLAS_NUM_THREADS=1``, set here
+before numpy loads), as Dask's nannies set it for their workers
+(``distributed.nanny.pre-spawn-environ``): the four runs then do the same
+arithmetic, so they time the same work and give the same fits to the last bit.
+With OpenBLAS's default of a thread per core the products of a 30 000-row
+Jacobian are summed in another order, and the fits differ from a Dask worker's
+in the last digits.
+
 Keys (merged into ``results/bench.json``, read-modify-write, atomic):
 ``dask_diagnose_candidates_per_s_{local,dask}_{1,2}`` (candidates / wall s),
 ``dask_diagnose_wall_s_{local,dask}_{1,2}``, ``dask_diagnose_dask_over_local_{1,2}``
-(the cluster's rate over the local one with as many processes), and the case.
-Each cluster run must give the local run's fits exactly (checked).
+(the cluster's rate over the local one with as many processes), the case, and
+``dask_diagnose_loadavg_before``/``_after`` (the 1-minute load average: the machine
+is shared, and another job running meanwhile shows there).  Each run must give the
+first one's fits exactly (checked).
+
+One candidate, the shaft compliance, takes about 13 s of the rung's 22 s on one
+process, which bounds what a second process or worker can gain.
 """
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
+
+os.environ.update({k: "1" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")})
 
 from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import _fit_all, _start_values, candidates
@@ -66,6 +82,7 @@ def main() -> None:
     scorer = Scorer(replay)
     cands = candidates(plant, replay)
     load_models(plant, replay, cands)  # the forked local workers inherit them
+    load_before = os.getloadavg()[0]
     walls, reference = {}, None
     for n in (1, 2):
         with Executor(workers=n) as where:
@@ -85,7 +102,8 @@ def main() -> None:
     out = {f"dask_diagnose_candidates_per_s_{k}": len(cands) / w for k, w in walls.items()}
     out.update({f"dask_diagnose_wall_s_{k}": w for k, w in walls.items()})
     out.update({f"dask_diagnose_dask_over_local_{n}": walls[f"local_{n}"] / walls[f"dask_{n}"] for n in (1, 2)})
-    out.update({"dask_diagnose_candidates": len(cands), "dask_diagnose_samples": int(len(data.time_s)),
+    out.update({"dask_diagnose_loadavg_before": load_before, "dask_diagnose_loadavg_after": os.getloadavg()[0],
+                "dask_diagnose_candidates": len(cands), "dask_diagnose_samples": int(len(data.time_s)),
                 "dask_diagnose_cpu_count": default_workers(),
                 "dask_diagnose_case": f"first rung's candidate fits, {PLANT.name} against {DATA.name}"})
     merge(out)

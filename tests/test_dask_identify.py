@@ -3,6 +3,13 @@
 The cluster is a ``LocalCluster`` of two worker processes bound to the loopback
 interface, no dashboard.  The record: 2.5 s of open-loop voltage steps on the
 bench rig with a load-side Coulomb friction hidden; four effects are tried.
+
+Exactly, here: a Dask worker runs BLAS on one thread (its nanny sets
+``OPENBLAS_NUM_THREADS=1``) and this process on OpenBLAS's default of one per
+core, but a 2.5 s record's products are small enough for OpenBLAS to do on one
+thread anyway.  On a 10 s record they are not, and the fits differ in the last
+digits unless the local run has ``OPENBLAS_NUM_THREADS=1`` too
+(``benchmarks/bench_dask_diagnose.py`` checks that case).
 """
 from __future__ import annotations
 
