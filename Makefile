@@ -49,6 +49,8 @@ bench: install
 	$(BIN)/python benchmarks/bench_table1.py
 	$(BIN)/python benchmarks/bench_sweep.py
 	$(BIN)/python benchmarks/bench_diagnose.py
+	$(BIN)/python benchmarks/bench_dask_diagnose.py
+	$(BIN)/python benchmarks/bench_ladder.py
 
 # the EMPS study with the ladder over the whole effect library too (about 70 min on 2 cores)
 emps-library: install

@@ -24,7 +24,8 @@ from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.replay import Replay
 from gearbench.measure.data import read_measurement
-from gearbench.report.io import write_text_atomic
+
+from bench_store import merge
 
 REPO = Path(__file__).resolve().parents[1]
 PLANT = REPO / "experiments" / "plants" / "bench_rig.yaml"
@@ -56,10 +57,7 @@ def main() -> None:
         "diagnose_ladder": [{"effect": s.effect, "error_deg": s.error} for s in d.ladder],
         "diagnose_noise_floor_deg": d.noise_floor,
     }
-    path = REPO / "results" / "bench.json"
-    merged = json.loads(path.read_text()) if path.exists() else {}
-    merged.update(out)
-    write_text_atomic(path, json.dumps(merged, indent=1) + "\n")
+    merge(out)
     print(json.dumps(out, indent=1))
 
 

@@ -16,13 +16,13 @@ Merges into ``results/bench.json`` (read-modify-write, atomic).
 """
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from pathlib import Path
 
-from gearbench.report.io import write_text_atomic
 from gearbench.sweep import default_workers, parse_params, plan_sweep, run_sweep, solve_point
+
+from bench_store import merge
 
 REPO = Path(__file__).resolve().parents[1]
 PLANT = REPO / "experiments" / "plants" / "thesis_gear.yaml"
@@ -62,10 +62,7 @@ def main() -> None:
     figures["sweep_points"] = len(plan.points)
     figures["sweep_cpu_count"] = default_workers()
     figures["sweep_case"] = f"P control, {PARAM}, profile2 for 2 s, thesis_gear"
-    out = REPO / "results" / "bench.json"
-    old = json.loads(out.read_text()) if out.exists() else {}
-    old.update(figures)
-    write_text_atomic(out, json.dumps(old, indent=2) + "\n")
+    merge(figures)
     for key, value in figures.items():
         print(f"{key:>24}: {value:.4g}" if isinstance(value, float) else f"{key:>24}: {value}")
 

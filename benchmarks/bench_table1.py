@@ -29,7 +29,6 @@ see ``all_cells``).
 """
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 import sys
@@ -47,6 +46,8 @@ from gearbench.experiment.files import load_experiment
 from gearbench.profiles import load_profile
 from gearbench.report.io import write_text_atomic
 from gearbench.simulate import simulate
+
+from bench_store import merge
 
 REPO = Path(__file__).resolve().parents[1]
 EXPERIMENT = REPO / "experiments" / "table1.yaml"
@@ -263,10 +264,7 @@ def main() -> None:
     figures = {"table1_wall_s": table1_wall, "table1_runs": len(exp.runs()),
                **results[first], "cell": first, "rtol": BASELINE_RTOL, "table1_rtol": exp.solver.rtol,
                "cells": results}
-    out = REPO / "results" / "bench.json"
-    old = json.loads(out.read_text()) if out.exists() else {}
-    old.update(figures)
-    write_text_atomic(out, json.dumps(old, indent=2) + "\n")
+    merge(figures)
     print(f"Table I end to end: {table1_wall:.2f} s ({len(exp.runs())} runs)")
     for name, r in results.items():
         print(f"{name}: ours {1e3 * r['run_wall_s']:.2f} ms ({r['run_steps']} steps; "

@@ -62,6 +62,12 @@ def _raise(where: str, problems: list[str]) -> None:
 
 # ------------------------------------------------------------------ inputs
 
+def _check_scheduler(scheduler: Any, problems: list[str]) -> None:
+    """``scheduler`` is None or an address string (whether anything answers there is known on connecting)."""
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        problems.append(f"scheduler must be a Dask scheduler address like 'tcp://HOST:8786', got {show(scheduler)}")
+
+
 def _as_plant(plant: Any, where: str) -> Plant:
     """A Plant as given, or loaded from a file path or a mapping (checked like a file)."""
     if isinstance(plant, Plant):
@@ -780,8 +786,8 @@ class DiagnosisReport:
 def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
              controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
              free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
-             workers: int | None = 1, calibrate: bool = True, time_limit_s: float | None = None,
-             progress=None) -> DiagnosisReport:
+             workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
+             time_limit_s: float | None = None, progress=None) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -803,12 +809,18 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     max_steps : int
         Longest ladder.
     workers : int or None
-        Processes fitting candidates (None: all cores).
+        Processes fitting candidates (None: all cores).  Ignored with ``scheduler``.
     calibrate : bool
         The plant's own datasheet values within their tolerances (the plant file's
         ``{value, tolerance_pct}``, else 20 %) may be calibrated, once, as a step that
         competes with the effects (``gearbench.identify.calibration``); the report's
         ``calibration``.
+    scheduler : str, optional
+        Address of a running Dask distributed scheduler (``tcp://HOST:PORT``): what
+        ``workers`` would run runs there, one task per fit (each rung's candidate fits,
+        the best three refitted with the effects already added, the pair fits;
+        ``gearbench.identify.executor``), with the same answer as locally; the baseline,
+        calibration, simplification and pruning stay in this process.
     time_limit_s : float, optional
         Start no new rung after this many seconds, s (the rung that crosses it finishes;
         ``to_dict()["stopped"]`` is then ``"time limit"``).
@@ -829,6 +841,9 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     gearbench.identify.diagnose.DiagnosisInterrupted
         On Ctrl-C during the ladder (a ``KeyboardInterrupt``): its ``diagnosis`` is the
         ladder so far.
+    SchedulerError
+        ``scheduler`` is malformed or nothing answers there
+        (:class:`gearbench.workers.SchedulerError`, a ``ValueError``).
 
     Examples
     --------
@@ -849,6 +864,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         Number("s", low_strict=False).check(time_limit_s, "time_limit_s", problems)
     if progress is not None and not callable(progress):
         problems.append(f"progress must be callable, got {show(progress)}")
+    _check_scheduler(scheduler, problems)
     for key, seq in (("free", free), ("only", only)):
         if isinstance(seq, str) or not all(isinstance(s, str) for s in seq):
             problems.append(f"{key} must be a sequence of strings, got {show(seq)}")
@@ -861,20 +877,24 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
     return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only),
-                                     calibrate=bool(calibrate), time_limit_s=time_limit_s, progress=progress))
+                                     calibrate=bool(calibrate), scheduler=scheduler, time_limit_s=time_limit_s,
+                                     progress=progress))
 
 
 @single_threaded
 def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = None,
                    start: Mapping | None = None, free: Sequence[str] = (), refit: bool = False,
-                   max_evals: int | None = None, calibrate: bool = False) -> list:
+                   max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None) -> list:
     """Fit effect ``name`` in every place it may act (``options`` fixes some,
     e.g. ``{"location": "load"}``) to the replayed record; one
     ``identify.diagnose.Tried`` per place.  ``start``: starting values of its
     parameters; ``calibrate``: the plant's own values within their tolerances too
-    (``identify.calibration.plan``).  Shared by :func:`fit` and ``gearbench fit``."""
+    (``identify.calibration.plan``); ``scheduler``: the places are fitted on the Dask
+    cluster at this address, one task each (``identify.executor``; in this process
+    without it).  Shared by :func:`fit` and ``gearbench fit``."""
     from .identify import calibration
-    from .identify.diagnose import Candidate, _start_values, candidates, try_candidate
+    from .identify.diagnose import Candidate, _run_candidate, _start_values, candidates
+    from .identify.executor import Executor
     from .identify.fit import Free, Scorer
     from .plant.effects import REGISTRY
     from .plant.effects.location import key as file_key
@@ -897,10 +917,12 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
         Free.plant(plant, p)  # a bad key is named before any solving
     scorer = Scorer(replay)
     again = tuple(range(len(plant.effects))) if refit else ()
-    cal = calibration.plan(plant, replay, scorer).frees if calibrate else []
-    return [try_candidate(replay, scorer, plant, Candidate(name, c.options), tuple(free) + tuple(cal), again,
-                          start=None if not start else {**c.options, **_start_values(plant, c), **start},
-                          max_nfev=max_evals) for c in places]
+    with Executor(1, scheduler) as where:  # a scheduler is reached (or named unreachable) before calibrating
+        cal = calibration.plan(plant, replay, scorer).frees if calibrate else []
+        return where.map(_run_candidate, [
+            (replay, scorer, plant, Candidate(name, c.options), tuple(free) + tuple(cal), again,
+             None if not start else {**c.options, **_start_values(plant, c), **start}, max_evals)
+            for c in places])
 
 
 @dataclass
@@ -976,7 +998,7 @@ class FitReport:
 def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, effect: str, *,
         options: Mapping | None = None, start: Mapping | None = None, free: Sequence[str] = (),
         refit: bool = False, controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
-        max_evals: int | None = None, calibrate: bool = False) -> FitReport:
+        max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None) -> FitReport:
     """Add an effect to a plant and fit its parameters (and ``free`` plant parameters) to a record.
 
     Without a ``location`` in ``options`` every place the effect may act is
@@ -1012,6 +1034,10 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         default: fitted beside one effect while another is still missing, they take up
         part of the missing one (the tutorial's spring fitted alone with them: 1.94 for
         2.00 N m/rad, and the friction fitted next did not bring it back).
+    scheduler : str, optional
+        Address of a running Dask distributed scheduler (``tcp://HOST:PORT``): the
+        places tried (every place the effect may act, without a ``location``) are
+        fitted there, one task each, with the same answer as in this process.
 
     Returns
     -------
@@ -1024,6 +1050,9 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         As :func:`compare`; a bad effect, option or free key is named.
     FitError
         No place converged; the plant is unchanged.
+    SchedulerError
+        ``scheduler`` is malformed or nothing answers there
+        (:class:`gearbench.workers.SchedulerError`, a ``ValueError``).
 
     Examples
     --------
@@ -1044,10 +1073,12 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         Number("simulations", integer=True).check(max_evals, "max_evals", problems)
     if isinstance(free, str) or not all(isinstance(s, str) for s in free):
         problems.append(f"free must be a sequence of strings, got {show(free)}")
+    _check_scheduler(scheduler, problems)
     _raise(where, problems)
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, where)
     try:
-        tried = fit_candidates(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate))
+        tried = fit_candidates(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate),
+                               scheduler)
     except ValueError as exc:
         if type(exc) is not ValueError:  # already one of the project's named errors
             raise

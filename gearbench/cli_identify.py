@@ -54,11 +54,19 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol):
 
 
 def _errors():
+    """The bad-input errors a command reports with exit status 2; an unreachable ``--scheduler``
+    (``gearbench.workers.SchedulerError``) is a ``ValueError`` among them."""
     from .experiment.files import ConfigError
     from .identify.fit import FitError
     from .identify.replay import ReplayError
     from .measure.data import MeasurementError
     return (ConfigError, MeasurementError, ReplayError, FitError, ValueError)
+
+
+_scheduler = click.option(
+    "--scheduler", metavar="tcp://HOST:PORT", default=None,
+    help="Fit the candidates on this running Dask distributed scheduler instead of local processes "
+         "(one task per fit; the same answer).")
 
 
 def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Path:
@@ -179,7 +187,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
 @click.option("--time-limit", "time_limit_s", type=click.FloatRange(min=0.0), default=None, metavar="SECONDS",
               help="Start no new rung after SECONDS (the rung that crosses it finishes); the JSON's 'stopped' "
                    "is then \"time limit\".")
-@click.option("--workers", type=int, default=None, help="Processes (default: all cores).")
+@click.option("--workers", type=int, default=None,
+              help="Local processes (default: all cores); ignored with --scheduler.")
+@_scheduler
 @click.option("--quiet", is_flag=True, help="No progress display (for scripts; --json implies nothing else on stdout).")
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<PLANT>_<DATA>/.")
@@ -195,7 +205,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                    "(e.g. the drive force) in closed loop.  'stopped' says why the ladder ended: \"noise floor\", "
                    "\"nothing pays\", \"max steps\" or \"time limit\".")
 def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, calibrate, max_steps, time_limit_s,
-             workers, quiet, results, as_json):
+             workers, scheduler, quiet, results, as_json):
     """Which physical effect is the model missing?
 
     Fits every effect of the library that the plant lacks, in every place it
@@ -222,7 +232,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         names = tuple(n.strip() for n in only.split(",") if n.strip())
         with _ladder_progress(disable=quiet or as_json) as show:
             d = run_diagnosis(plant, replay, tuple(free), max_steps, workers, progress=show, only=names,
-                              calibrate=calibrate, time_limit_s=time_limit_s)
+                              calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler)
     except _errors() as exc:
         _fail(exc)
     except DiagnosisInterrupted as stop:
@@ -336,6 +346,7 @@ def _rows(d):
                    "part of what is missing.")
 @click.option("--max-evals", type=int, default=None,
               help="Most simulations the least-squares fit may spend (default: 40 per parameter + 40).")
+@_scheduler
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="The new plant file (written only if the fit converges).")
 @click.option("--json", "as_json", is_flag=True,
@@ -343,7 +354,7 @@ def _rows(d):
                    "correlation of the two estimates), error_before, error_after, error_signal, "
                    "output, tried} as one JSON object on stdout instead of the table.")
 def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, calibrate, max_evals,
-        output, as_json):
+        scheduler, output, as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors (and
@@ -370,7 +381,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
         start = {k: v for k, v in item.items() if k not in opts}
         scorer = Scorer(replay)
         with console.status(f"fitting {name}"):
-            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals, calibrate)
+            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals, calibrate, scheduler)
     except _errors() as exc:
         _fail(exc)
     ok = [t for t in tried if t.ok]

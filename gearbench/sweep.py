@@ -62,7 +62,8 @@ from .experiment.files import (ConfigError, Experiment, _resolve, experiment_fro
                                read_yaml)
 from .physics_hash import physics_digest
 from .simulate import failure_message, simulate
-from .workers import default_workers, process_pool, worker_count  # noqa: F401 - default_workers re-exported
+from .workers import (SchedulerError, dask_client, default_workers,  # noqa: F401 - default_workers re-exported
+                      process_pool, worker_count)
 
 
 class SweepError(ValueError):
@@ -608,14 +609,10 @@ def _local(points: list[Point], workers: int) -> Iterable[tuple[Point, dict]]:
 
 def _dask(points: list[Point], address: str, lost: list[str]) -> Iterable[tuple[Point, dict]]:
     try:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-    except ImportError:  # pragma: no cover - dask is a dependency
-        raise SweepError("--scheduler needs dask[distributed] (pip install 'dask[distributed]')") from None
-    try:
-        client = Client(address, timeout="20s", set_as_default=False)
-    except (OSError, TimeoutError) as exc:
-        raise SweepError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        client = dask_client(address)
+    except SchedulerError as exc:
+        raise SweepError(str(exc)) from None
+    from distributed import as_completed as dask_completed
     try:
         futures = client.map(solve_point, [p.job for p in points],
                              key=[f"gearbench-{p.key}" for p in points], retries=1)

@@ -1,4 +1,4 @@
-"""Local process pools whose workers end with their parent.
+"""Local process pools whose workers end with their parent, and the connection to a Dask cluster.
 
 Every local pool of gearbench (``runner.run_experiment``, ``sweep``'s local
 points, ``identify.diagnose``'s candidate fits) is made here, with one rule for
@@ -25,6 +25,10 @@ With ``fork`` a ``ProcessPoolExecutor`` starts all its workers at the first
 ``submit``, from the submitting thread; Linux's parent-death signal fires when
 *that thread* ends, so a pool must be used from a thread that outlives it (the
 main thread, in gearbench).
+
+The other way to spread work, a running Dask distributed cluster (``sweep`` and
+``diagnose``/``fit`` with ``--scheduler``), is reached through :func:`dask_client`,
+so the commands share one timeout and one error.
 """
 from __future__ import annotations
 
@@ -45,6 +49,14 @@ POLL_S = 0.2
 """Period of the fallback parent watch, s (a worker outlives its parent by at most this)."""
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+CONNECT_TIMEOUT_S = 20
+"""How long :func:`dask_client` waits for a scheduler to answer, s (an address where nothing
+listens is only known to be wrong after it: the client retries a refused connection)."""
+
+
+class SchedulerError(ValueError):
+    """A Dask scheduler that cannot be used: a malformed address, nothing answering there, no dask."""
 
 
 def default_workers() -> int:
@@ -154,4 +166,35 @@ def process_pool(workers: int, *, watch: str = "auto") -> Iterator[ProcessPoolEx
     pool.shutdown(wait=True)
 
 
-__all__ = ["POLL_S", "default_workers", "worker_count", "process_pool"]
+def dask_client(address: str):
+    """A ``distributed.Client`` of the running Dask scheduler at ``address`` (``tcp://HOST:PORT``).
+
+    It is not made Dask's default client (``set_as_default=False``): gearbench's work goes
+    to it by name, and a caller's own Dask code keeps its own client.  The caller closes it.
+    Raises :class:`SchedulerError` naming the address when dask is missing, the address is
+    malformed or nothing answers there within :data:`CONNECT_TIMEOUT_S`.
+    """
+    try:
+        from distributed import Client
+        from distributed.comm import get_address_host_port
+    except ImportError:  # pragma: no cover - dask is a dependency
+        raise SchedulerError("--scheduler needs dask[distributed] (pip install 'dask[distributed]')") from None
+    problem = None
+    # A malformed address is refused before a Client is made: one made from it never closes (at the
+    # interpreter's exit it waits 40 s, then prints a traceback).  An in-process cluster's address
+    # (inproc://) names no host and port.
+    if not address.startswith("inproc://"):
+        try:
+            get_address_host_port(address)
+        except ValueError as exc:
+            problem = str(exc)
+    if problem is None:
+        try:
+            return Client(address, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            problem = str(exc)
+    raise SchedulerError(f"cannot reach the Dask scheduler at {address}: {problem}")
+
+
+__all__ = ["POLL_S", "CONNECT_TIMEOUT_S", "SchedulerError", "dask_client", "default_workers", "worker_count",
+           "process_pool"]

@@ -56,10 +56,10 @@ from .evidence import explain, signal_evidence
 from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees
 from .replay import Replay, ReplayError
 from . import calibration, search
+from .executor import Executor
 from .uncertainty import strong_correlations
 from ..blas import single_threaded
 from ..interrupts import is_interrupt
-from ..workers import process_pool, worker_count
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
            "lowest first; the places of one effect (location, signal) share the slots their BICs earn, in the "
@@ -479,7 +479,7 @@ def _rank(tried: list[Tried]) -> list[Tried]:
 
 
 def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
-    """Fit candidates in parallel (``workers`` processes, ``gearbench.workers``); an item of
+    """Fit candidates in parallel (where the :class:`Executor` ``workers`` runs them); an item of
     ``cands`` may be ``(candidate, start values)``."""
     jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
             for c in cands]
@@ -487,22 +487,19 @@ def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress)
     return _map(_run_candidate, jobs, workers, progress)
 
 
-def _map(fn, jobs, workers, progress):
-    """``fn`` over ``jobs`` in ``workers`` processes (``gearbench.workers``), in order."""
-    workers = worker_count(workers, len(jobs))
-    out = []
-    if workers > 1:
-        with process_pool(workers) as pool:
-            for t in pool.map(fn, jobs):
-                out.append(t)
-                if progress:
-                    progress(t)
-        return out
-    for j in jobs:
-        out.append(fn(j))
-        if progress:
-            progress(out[-1])
-    return out
+def _map(fn, jobs, workers: Executor, progress):
+    """``fn`` over ``jobs`` where ``workers`` runs them (an :class:`Executor`: local processes or
+    a Dask cluster), the results in the order of the jobs; the jobs with the most parameters to
+    fit (:func:`_cost`) start first."""
+    return workers.map(fn, jobs, progress, cost=[_cost(j) for j in jobs])
+
+
+def _cost(job) -> int:
+    """A job's expected run time, for the order the jobs start in: the parameters it fits (a
+    candidate's, or a pair's both; the scan takes 8 points per parameter, the local fits' finite
+    differences one replay per parameter)."""
+    members = [t.candidate if isinstance(t, Tried) else t for t in job if isinstance(t, (Candidate, Tried))]
+    return sum(len(REGISTRY[c.name].params) for c in members)
 
 
 def _accepts(current: FitResult, new: FitResult) -> bool:
@@ -612,7 +609,8 @@ class CalibrationStep:
 @single_threaded
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
              workers: int | None = None, progress: Callable[[ProgressEvent], None] | None = None,
-             only: tuple[str, ...] = (), calibrate: bool = True, time_limit_s: float | None = None) -> Diagnosis:
+             only: tuple[str, ...] = (), calibrate: bool = True, time_limit_s: float | None = None,
+             scheduler: str | None = None) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
 
     Each rung fits every candidate with the effects added so far held (cheap),
@@ -636,7 +634,22 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     finishes; time_limit_s: no new rung is started once this many seconds have passed
     (the rung that crosses it finishes; ``stopped`` is ``"time limit"``).  Ctrl-C during the
     ladder raises :class:`DiagnosisInterrupted`, which carries the ladder so far.
+    scheduler: the address of a running Dask scheduler (``tcp://HOST:PORT``,
+    connected once for the whole diagnosis; ``workers`` is then ignored): what
+    runs on ``workers`` processes otherwise runs there (``executor``), one task
+    per fit, the answer the same as a local run's: each rung's candidate fits,
+    the best ``JOINT_TOP`` refitted with the effects already added, and the pair
+    fits.  The baseline, the calibration plan and step, the simplification and
+    the pruning stay in this process.  An unreachable scheduler raises
+    :class:`gearbench.workers.SchedulerError` before any fitting.
     """
+    with Executor(workers, scheduler) as where:
+        return _diagnose(plant, replay, free_plant, max_steps, where, progress, only, calibrate, time_limit_s)
+
+
+def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_steps: int, workers: Executor,
+              progress, only: tuple[str, ...], calibrate: bool, time_limit_s: float | None) -> Diagnosis:
+    """:func:`diagnose`, its candidate and pair fits run by ``workers``."""
     unknown = [n for n in only if n not in REGISTRY]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; the library has {', '.join(REGISTRY)}")

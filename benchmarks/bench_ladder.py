@@ -1,0 +1,119 @@
+"""Benchmark: ``gearbench diagnose`` end to end, whole library, ladder to the end (issue 18).
+
+The records are made by ``gearbench synth`` (the bench rig, 1 kHz, the mixed excitation of
+the diagnose tests), then each is diagnosed by ``gearbench diagnose ... --json`` in a fresh
+process, timed from the command's start to its exit (what a user waits for, the compiled
+core loaded from numba's disk cache):
+
+* ``none_16s``: 16 s, nothing hidden;
+* ``one_16s``: 16 s, Coulomb friction at the load (0.6 N m);
+* ``two_16s``: 16 s, a load spring (1.5 N m/rad at 5 deg) and Coulomb friction at the load (0.6 N m);
+* ``backlash_16s``: 16 s, 3 deg of backlash hidden in the rig written with ``backlash_deg: 0``;
+* ``two_4s``: 4 s, a 3 ms sensor delay on the load angle and Coulomb friction at the motor
+  (0.02 N m).
+
+Targets: 60 s for each 16 s record, 30 s for the 4 s one.  ``--python`` and ``--pythonpath``
+run the same commands with another interpreter or another checkout's ``gearbench`` (the
+figure of the code before a change, measured in the same session); ``--label`` names that
+run in ``results/bench.json`` (``ladder_<label>``).  A diagnosis still running after
+``--timeout`` seconds is stopped and recorded as such.
+
+    python benchmarks/bench_ladder.py                   # this checkout -> bench.json "ladder"
+    python benchmarks/bench_ladder.py --pythonpath ../before --label before
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import click
+
+REPO = Path(__file__).resolve().parents[1]
+PLANTS = REPO / "experiments" / "plants"
+TARGET_S = {"16": 60.0, "4": 30.0}
+
+RECORDS = {  # name -> (plant the record is made from, plant diagnose is given, duration s, hidden effects)
+    "none_16s": ("bench_rig.yaml", "bench_rig.yaml", 16, []),
+    "one_16s": ("bench_rig.yaml", "bench_rig.yaml", 16, ["coulomb_friction location=load torque=0.6"]),
+    "two_16s": ("bench_rig.yaml", "bench_rig.yaml", 16,
+                ["load_spring stiffness=1.5 rest_angle_deg=5", "coulomb_friction location=load torque=0.6"]),
+    "backlash_16s": ("bench_rig_rigid.yaml", "bench_rig_rigid.yaml", 16, ["backlash backlash_deg=3"]),
+    "two_4s": ("bench_rig.yaml", "bench_rig.yaml", 4,
+               ["sensor_delay signal=load_angle_deg delay=0.003", "coulomb_friction location=motor torque=0.02"]),
+}
+SEED = 3
+
+
+def gearbench(python: str, pythonpath: str | None) -> tuple[list[str], dict]:
+    env = dict(os.environ)
+    if pythonpath:
+        env["PYTHONPATH"] = str(Path(pythonpath).resolve())
+    return [python, "-c", "from gearbench.cli import main; main()"], env
+
+
+def make_record(name: str, folder: Path) -> Path:
+    src, _, duration, hidden = RECORDS[name]
+    out = folder / f"{name}.csv"
+    cmd, env = gearbench(sys.executable, None)
+    args = cmd + ["synth", str(PLANTS / src), "--excitation", "mixed", "--duration", str(duration),
+                  "--seed", str(SEED), "-o", str(out)]
+    for e in hidden:
+        args += ["--effect", e]
+    subprocess.run(args, check=True, env=env, capture_output=True, cwd=REPO)
+    return out
+
+
+def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout: float, out: Path) -> dict:
+    _, plant, duration, hidden = RECORDS[name]
+    cmd, env = gearbench(python, pythonpath)
+    args = cmd + ["diagnose", str(PLANTS / plant), str(data), "--json", "--results", str(out)]
+    t0 = time.perf_counter()
+    try:
+        p = subprocess.run(args, env=env, capture_output=True, text=True, timeout=timeout, cwd=REPO)
+    except subprocess.TimeoutExpired:
+        return {"wall_s": None, "status": f"stopped after {timeout:g} s", "hidden": hidden}
+    wall = time.perf_counter() - t0
+    row = {"wall_s": wall, "target_s": TARGET_S[str(duration)], "hidden": hidden, "exit": p.returncode}
+    if p.returncode != 0:
+        row["status"] = "failed"
+        row["stderr"] = p.stderr[-2000:]
+        return row
+    j = json.loads(p.stdout)
+    row.update(status="ok", verdict=j["verdict"], noise_floor=j["noise_floor"], reason=j["reason"],
+               stopped=j.get("stopped"),
+               ladder=[{"effect": s["effect"], "action": s.get("action", "add"), "options": s.get("options", {}),
+                        "params": s["params"], "stderr": s["stderr"], "error": s["error"]} for s in j["ladder"]])
+    return row
+
+
+@click.command()
+@click.option("--python", default=sys.executable, show_default=True, help="Interpreter that runs gearbench.")
+@click.option("--pythonpath", default=None, help="A checkout whose gearbench to run instead (PYTHONPATH).")
+@click.option("--label", default="", help="Stored as ladder_<label> in results/bench.json (default: ladder).")
+@click.option("--only", "names", multiple=True, type=click.Choice(sorted(RECORDS)), help="Only these records.")
+@click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
+def main(python, pythonpath, label, names, timeout):
+    from bench_store import merge
+    names = names or tuple(RECORDS)
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name in names:
+            data = make_record(name, tmp)
+            rows[name] = run_one(name, data, python, pythonpath, timeout, tmp / "results")
+            r = rows[name]
+            print(f"{name}: {r['status']}, {r['wall_s'] and round(r['wall_s'], 1)} s; verdict {r.get('verdict')}; "
+                  + " -> ".join(f"{'-' if s['action'] == 'remove' else ''}{s['effect']} {s['error']:.4g}"
+                                for s in r.get("ladder", [])), flush=True)
+    merge({f"ladder_{label}" if label else "ladder": {
+        "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(), "pythonpath": pythonpath,
+        "records": rows}})
+
+
+if __name__ == "__main__":
+    main()
