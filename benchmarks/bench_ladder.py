@@ -110,9 +110,12 @@ def main(python, pythonpath, label, names, timeout):
             print(f"{name}: {r['status']}, {r['wall_s'] and round(r['wall_s'], 1)} s; verdict {r.get('verdict')}; "
                   + " -> ".join(f"{'-' if s['action'] == 'remove' else ''}{s['effect']} {s['error']:.4g}"
                                 for s in r.get("ladder", [])), flush=True)
+    code = Path(pythonpath).resolve() if pythonpath else REPO
+    commit = subprocess.run(["git", "-C", str(code), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip() or None
     merge({f"ladder_{label}" if label else "ladder": {
-        "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(), "pythonpath": pythonpath,
-        "records": rows}})
+        "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),
+        "commit": commit, "other_checkout": bool(pythonpath), "records": rows}})
 
 
 if __name__ == "__main__":
