@@ -190,7 +190,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
 @click.option("--workers", type=int, default=None,
               help="Local processes (default: all cores); ignored with --scheduler.")
 @_scheduler
-@click.option("--quiet", is_flag=True, help="No progress display (for scripts; --json implies nothing else on stdout).")
+@click.option("--quiet", is_flag=True, help="No progress display on stderr (for scripts; --json shows none either).")
 @click.option("--results", type=click.Path(file_okay=False, path_type=Path), default=Path("results"),
               show_default=True, help="Folder; the ladder figure and tables go to RESULTS/diagnose_<PLANT>_<DATA>/.")
 @click.option("--json", "as_json", is_flag=True,
@@ -236,7 +236,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     except _errors() as exc:
         _fail(exc)
     except DiagnosisInterrupted as stop:
-        _print_ladder(stop.diagnosis, console, {})
+        _print_ladder(stop.diagnosis, console)
         interrupted(f"during ladder step {len(stop.diagnosis.ladder) + 1}; the ladder so far is above, "
                     "no file was written")
     j = d.to_json()
@@ -274,7 +274,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
         tab.add_row(t.candidate.label(), pars if t.ok else t.note[:60],
                     f"{t.result.error:.4g}" if t.ok else "—", f"{t.result.bic:.6g}" if t.ok else "—")
     stdout().print(tab)
-    _print_ladder(d, stdout(), cal)
+    _print_ladder(d, stdout())
     stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
     for k, c in cal.items():
         if c["status"] == "held":
@@ -290,8 +290,9 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     console.print(f"figures and tables in {out}/")
 
 
-def _print_ladder(d, where, cal: dict) -> None:
+def _print_ladder(d, where) -> None:
     """The ladder as a table on console ``where``: the baseline, each rung, the calibration."""
+    cal = d.calibration
     lad = Table(title=f"the ladder: error (RMS of {d.signal}, {d.unit}) as effects are added")
     for col in ("step", "effect", "parameters", "error"):
         lad.add_column(col)

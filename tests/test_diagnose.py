@@ -87,8 +87,9 @@ def test_hidden_effect_is_found(label):
     corr = float(re.search(r"correlation (?:with it is )?(\d\.\d\d)", text).group(1))
     if label in SHORT_CORRELATION and corr < 0.9:
         pytest.xfail(f"{label}: signature correlation {corr:.2f} < 0.9 (known, {SHORT_CORRELATION[label]})")
-    if name != "shaft_compliance":  # its residual is at the noise floor: nothing left to correlate
-        assert corr >= 0.9, text
+    if name == "shaft_compliance":  # its residual is at the noise floor: nothing left to correlate,
+        return                       # so no signature can be the strongest either (0.00, speed 0.01)
+    assert corr >= 0.9, text
     if SIGNATURES[REGISTRY[name].signature][0] == "torque":
         assert "the strongest of the" in text, text
 

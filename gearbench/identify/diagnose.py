@@ -328,13 +328,13 @@ class _Tracker:
     def elapsed_s(self) -> float:
         return time.perf_counter() - self.t0
 
-    def stage(self, name: str, total: int = 1, label: str = ""):
+    def stage(self, name: str, total: int = 1):
         """Announce stage ``name`` of ``total`` fits; returns the callback ``_map`` calls with each
         finished :class:`Tried` or :class:`Pair` (None without a callback)."""
         if self.callback is None:
             return None
         done, best = 0, None
-        self.callback(ProgressEvent(self.step, name, 0, total, label, "", self.elapsed_s))
+        self.callback(ProgressEvent(self.step, name, 0, total, "", "", self.elapsed_s))
 
         def each(item):
             nonlocal done, best
