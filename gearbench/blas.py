@@ -8,8 +8,10 @@ rung's 14 candidates of the README tutorial's record (``diagnose``'s screen, sha
 compliance left out) took 16.7 s in one process with OpenBLAS's default two threads and
 9.1 s with one; on two worker processes 13.7 s against 6.7 s (each worker's BLAS threads
 competed with the other worker for the two cores).  So the fitting entry points and every
-pool worker run with one BLAS thread (``threadpoolctl``, as joblib's workers do); the
-compiled integrator does not use BLAS at all.
+pool worker run with one BLAS thread (``threadpoolctl``, as joblib's workers do), and the
+command line sets ``OPENBLAS_NUM_THREADS=1`` before numpy loads (``gearbench.cli``): a limit
+set once OpenBLAS has started its threads helps less (the same screen on two workers: 9.5 s
+against 6.3 s).  The compiled integrator does not use BLAS at all.
 """
 from __future__ import annotations
 
