@@ -37,13 +37,13 @@ REPO = Path(__file__).resolve().parents[1]
 PLANTS = REPO / "experiments" / "plants"
 TARGET_S = {"16": 60.0, "4": 30.0}
 
-RECORDS = {  # name -> (plant the record is made from, plant diagnose is given, duration s, hidden effects)
-    "none_16s": ("bench_rig.yaml", "bench_rig.yaml", 16, []),
-    "one_16s": ("bench_rig.yaml", "bench_rig.yaml", 16, ["coulomb_friction location=load torque=0.6"]),
-    "two_16s": ("bench_rig.yaml", "bench_rig.yaml", 16,
+RECORDS = {  # name -> (plant the record is made from and diagnose is given, duration s, hidden effects)
+    "none_16s": ("bench_rig.yaml", 16, []),
+    "one_16s": ("bench_rig.yaml", 16, ["coulomb_friction location=load torque=0.6"]),
+    "two_16s": ("bench_rig.yaml", 16,
                 ["load_spring stiffness=1.5 rest_angle_deg=5", "coulomb_friction location=load torque=0.6"]),
-    "backlash_16s": ("bench_rig_rigid.yaml", "bench_rig_rigid.yaml", 16, ["backlash backlash_deg=3"]),
-    "two_4s": ("bench_rig.yaml", "bench_rig.yaml", 4,
+    "backlash_16s": ("bench_rig_rigid.yaml", 16, ["backlash backlash_deg=3"]),
+    "two_4s": ("bench_rig.yaml", 4,
                ["sensor_delay signal=load_angle_deg delay=0.003", "coulomb_friction location=motor torque=0.02"]),
 }
 SEED = 3
@@ -57,7 +57,7 @@ def gearbench(python: str, pythonpath: str | None) -> tuple[list[str], dict]:
 
 
 def make_record(name: str, folder: Path) -> Path:
-    src, _, duration, hidden = RECORDS[name]
+    src, duration, hidden = RECORDS[name]
     out = folder / f"{name}.csv"
     cmd, env = gearbench(sys.executable, None)
     args = cmd + ["synth", str(PLANTS / src), "--excitation", "mixed", "--duration", str(duration),
@@ -69,7 +69,7 @@ def make_record(name: str, folder: Path) -> Path:
 
 
 def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout: float, out: Path) -> dict:
-    _, plant, duration, hidden = RECORDS[name]
+    plant, duration, hidden = RECORDS[name]
     cmd, env = gearbench(python, pythonpath)
     args = cmd + ["diagnose", str(PLANTS / plant), str(data), "--json", "--results", str(out)]
     t0 = time.perf_counter()

@@ -239,8 +239,9 @@ class Replay:
         outs = []
         seg_u = []
         self.reinitialised_s = []
-        motion = self._motion(plant) if len(self.windows(plant)) > 1 else None
-        for a, b in self.windows(plant):
+        windows = self.windows(plant)
+        motion = self._motion(plant) if len(windows) > 1 else None
+        for a, b in windows:
             if a > 0 and self._reset_angles(x, a, plant, outs[-1], motion):
                 self.reinitialised_s.append(float(self.t[a]))
             segs = self._segments(plant, a, b)
