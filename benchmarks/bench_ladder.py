@@ -111,7 +111,7 @@ def main(python, pythonpath, label, names, timeout):
                   + " -> ".join(f"{'-' if s['action'] == 'remove' else ''}{s['effect']} {s['error']:.4g}"
                                 for s in r.get("ladder", [])), flush=True)
     code = Path(pythonpath).resolve() if pythonpath else REPO
-    commit = subprocess.run(["git", "-C", str(code), "rev-parse", "--short", "HEAD"], capture_output=True,
+    commit = subprocess.run(["git", "-C", str(code), "describe", "--always", "--dirty"], capture_output=True,
                             text=True).stdout.strip() or None
     merge({f"ladder_{label}" if label else "ladder": {
         "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),

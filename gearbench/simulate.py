@@ -423,6 +423,19 @@ def _stiff_mesh_hint(run: RunResult, plant: Plant | None) -> str | None:
     return None
 
 
+def _budget_hint(run: RunResult) -> str:
+    """Where an exhausted budget of steps and events went, and what that points to."""
+    steps, rejected, events = (int(run.stats[i]) for i in (L.S_STEPS, L.S_REJECTED, L.S_EVENTS))
+    spent = f"{steps} steps, {rejected} rejected, and {events} mode switches"
+    if events > steps:
+        return (f"{spent}: modes switching back and forth (a bang-bang band, a set-point shift, stick-slip "
+                "friction or teeth touching at zero force); widen the band, or raise max_steps")
+    if rejected > steps:
+        return (f"{spent}: the step size collapsing (an unstable gain, or a right-hand side that jumps "
+                "without an event); lower the gain, or raise max_steps")
+    return f"{spent}: a fast motion or a long run; raise max_steps, or check the gains"
+
+
 def failure_message(run: RunResult, name: str, plant: Plant | None = None) -> str:
     """Which run failed, where in time, and the likely cause.
 
@@ -438,8 +451,7 @@ def failure_message(run: RunResult, name: str, plant: Plant | None = None) -> st
     hint = hint or {
         L.STATUS_STEP_TOO_SMALL: "the plant is probably unphysical or far too stiff for the tolerance "
                                  "(check mesh_stiffness/mesh_damping against the inertias, and the gains)",
-        L.STATUS_MAX_STEPS: "a chattering mode switch (bang-bang band or set-point shift) or an unstable gain; "
-                            "widen the band, lower the gain, or raise max_steps",
+        L.STATUS_MAX_STEPS: _budget_hint(run),
         L.STATUS_NONFINITE: "the state blew up: an unstable gain or a non-physical parameter",
     }.get(status, "")
     name = run.label or name

@@ -241,6 +241,8 @@ def test_a_failed_run_raises_by_default_and_reports_when_asked():
         gb.simulate(plant, ctrl, "profile1", 1.0, solver=solver)
     run = gb.simulate(plant, ctrl, "profile1", 1.0, solver=solver, raise_on_failure=False)
     assert not run.ok and run.status == "step budget exhausted" and "failed at t =" in run.message
+    # where the budget went: 51 steps and no switch is not a chattering switch
+    assert "51 steps, 0 rejected, and 0 mode switches: a fast motion or a long run" in run.message
     assert run.to_dict()["status"] == "step budget exhausted"
 
 

@@ -778,6 +778,25 @@ def test_values_too_extreme_to_compute_with_are_named(tmp_path):
         load_plant(path)
 
 
+def test_a_power_past_1e308_and_an_infinite_gain_are_named(tmp_path):
+    """Found by the fuzz (2026-11-26): a lead of 1e308 mm squares past 1e308 (Python raised
+    OverflowError from the plant's reflected inertia), and Kp = 1e308 V/deg is infinite in
+    V/rad (the run was packed with an infinite gain)."""
+    path = tmp_path / "plant.yaml"
+    doc = read_doc(REPO / "experiments/plants/leadscrew_apparatus.yaml")
+    doc["leadscrew"]["lead_mm"] = 1e308
+    path.write_text(dump(doc))
+    with pytest.raises(ConfigError, match=r"plant\.yaml: the plant: its values are too extreme to compute with: "
+                                          r"a power of one of them overflows past 1e308"):
+        load_plant(path)
+    path = tmp_path / "exp.yaml"
+    path.write_text(dump({"plant": str(REPO / "experiments/plants/thesis_gear.yaml"), "duration_s": 1,
+                          "profiles": ["profile1"], "controllers": [{"kind": "p", "kp": 5}, {"kind": "p", "kp": 1e308}]}))
+    with pytest.raises(ConfigError, match=r"exp\.yaml: controllers\[1\]: its values are too extreme to compute with: "
+                                          r"a gain comes out infinite in SI units"):
+        load_experiment(path)
+
+
 @pytest.mark.parametrize("data", [bytes(range(256)) * 3, b"time_s,voltage_V,load_angle_deg\n0,1,\xff\xfe\n",
                                   "time_s,voltage_V,load_angle_deg\n0,1,2\n".encode("utf-16")])
 def test_a_binary_csv_names_the_file(tmp_path, data):

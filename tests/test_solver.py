@@ -93,6 +93,25 @@ def test_bang_bang_switches_on_time(thesis, log_rtol, slope_deg_s, band_deg):
     assert t_star - 1e-9 <= t_first <= t_star + dt * (1.0 + 1e-6), (t_first, t_star)
 
 
+def test_a_train_at_rest_on_a_flank_does_not_switch_contact_forever(thesis):
+    """Table I's profile 3, P at Kp = 50 with the shift, on the plant with the input shaft:
+    at t = 5.73 s the train comes to rest exactly (speeds below 1e-12 of their tolerance
+    are set to 0) on a flank at zero contact torque.  The teeth leave, and the guard of
+    the contact that follows reads exactly 0 at the step's start, then dips below and
+    comes back within the step (the pinion springs off the flank on its shaft and strikes
+    it again): taken as reached at once, the contact was entered and left at one instant
+    until the budget of 20 million steps and events ran out.  The strike is located
+    where it happens, and the run's IAE is the rigid-input plant's to 1 %."""
+    from gearbench.experiment.files import load_plant
+    ctrl = Controller("p", kp=50.0, shift=True)
+    segs = load_profile("profile3").segments()
+    shaft = simulate(load_plant("experiments/plants/thesis_gear_shaft.yaml"), ctrl, segs, 10.0, thesis.solver)
+    assert shaft.ok, shaft.status
+    assert shaft.stats[L.S_EVENTS] < 1_000
+    rigid = simulate(thesis.plant, ctrl, segs, 10.0, thesis.solver)
+    assert shaft.iae_deg_s == pytest.approx(rigid.iae_deg_s, rel=0.01)
+
+
 def test_jacobian_at_the_limit_is_that_of_the_side_it_heads_to(thesis):
     """After a located saturation event the state sits on the amplifier's limit
     within round-off, possibly just past it (here the command is Vmax + 8e-11 V)

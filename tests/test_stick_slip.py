@@ -175,6 +175,35 @@ def test_a_stuck_motor_drives_nothing_and_both_stuck_through_a_closed_mesh_hold(
     assert out[-1, L.O_TORQUE] == pytest.approx(2e4 * 2e-6, rel=1e-9)
 
 
+def test_a_stuck_rotor_behind_a_mesh_without_clearance():
+    """No clearance (``backlash_deg: 0``), Coulomb friction of 10 mN m on the rotor.
+
+    A load set ringing against the stuck rotor (0.45 mN m at the rotor, below breakaway)
+    rings down on the mesh, crossing from flank to flank; the rotor never moves; the
+    ringing ends at rest, exactly, and the run stays cheap (it used to ring on into
+    subnormal numbers, where the error estimate broke: on the bench rig written without
+    clearance, 900,000 steps in 4 ms; here the run failed on its budget).  Then the
+    voltage ramps up slowly (1 V/s): the rotor breaks away once, where ``kt i`` reaches
+    10 mN m (at t = 2/3 s), and turns on (it used to loop forever at the breakaway
+    instant, teeth touching and leaving at zero force)."""
+    plant = geartrain(friction("coulomb_friction", location="motor", torque=0.01), backlash_deg=0.0)
+    x0 = np.zeros(L.N_STATE)
+    x0[L.X_WL] = 1e-3  # rad/s: delta rings at ~2e-7 rad, 4.5 mN m through the mesh at the load
+    t, out, r = simulate(plant, [0.0], [0.0], t_end=2.0, x0=x0)
+    assert np.all(out[:, L.O_MOTOR] == 0.0)
+    assert np.ptp(np.sign(out[:40, L.O_DELTA])) == 2  # it rang on both flanks
+    assert r.meta["x_end"][L.X_WL] == 0.0 and r.meta["x_end"][L.X_DELTA] == 0.0
+    assert r.steps < 10_000 and r.stats[L.S_EVENTS] < 1_000, (r.steps, r.stats[L.S_EVENTS])
+
+    t, out, r = simulate(plant, [0.0], [0.0], [1.0], t_end=1.0, dt=1e-4)
+    moving = out[:, L.O_MOTOR] != 0.0
+    first = np.flatnonzero(moving)[0]
+    assert np.all(moving[first:])  # one breakaway, and it keeps turning
+    assert 0.03 * out[first - 1, L.O_CURRENT] <= 0.01 < 0.03 * out[first, L.O_CURRENT] + 1e-9
+    assert t[first] == pytest.approx(2.0 / 3.0, abs=2e-3)  # i = v / R while stuck (L/R = 0.5 ms)
+    assert r.steps < 50_000 and r.stats[L.S_EVENTS] < 1_000, (r.steps, r.stats[L.S_EVENTS])
+
+
 # ---- against Modelica -----------------------------------------------------
 
 def _translational(model: str):

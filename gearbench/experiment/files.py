@@ -28,7 +28,7 @@ import yaml
 
 from ..control.controllers import COMPENSATORS, Controller
 from ..plant.components import FITTABLE, Gear, Leadscrew, Load, Motor, Plant, Shaft
-from ..simulate import METHODS, SolverOptions
+from ..simulate import METHODS, SolverOptions, pack
 from ..plant.effects import REGISTRY as EFFECTS
 from ..plant.effects.base import AddedEffect
 from ..plant.effects.location import key as effect_key
@@ -340,6 +340,8 @@ def _fit_effects(plant: Plant, effects, paths, problems: list[str]) -> tuple:
         except ValueError as exc:
             problems.append(f"{path}: {exc}")
             continue
+        except OverflowError:  # a value near 1e308 squared: _extreme_problems says so
+            pass
         fitted.append(effect)
     return tuple(fitted)
 
@@ -456,12 +458,18 @@ def _extreme_problems(plant: Plant, where: str) -> list[str]:
     """Values each valid alone but too extreme to compute with together (a resistance of
     5e-324 ohm makes the typical current infinite): the solver's state scales and the
     compiled core's parameters must be finite and its scales positive."""
-    scales = tolerance_scales(plant)
-    bad = [name for i, name in _SCALES.items() if not (math.isfinite(scales[i]) and scales[i] > 0)]
-    params = np.delete(pack_plant(plant), L.P_VMAX)  # no drive limit packs as inf, by design
-    if not bad and np.all(np.isfinite(params)):
-        return []
-    if bad:
+    try:
+        scales = tolerance_scales(plant)
+        params = np.delete(pack_plant(plant), L.P_VMAX)  # no drive limit packs as inf, by design
+    except OverflowError:  # a float power past 1e308 (a leadscrew's radius squared)
+        bad = None
+    else:
+        bad = [name for i, name in _SCALES.items() if not (math.isfinite(scales[i]) and scales[i] > 0)]
+        if not bad and np.all(np.isfinite(params)):
+            return []
+    if bad is None:
+        what = "a power of one of them overflows past 1e308"
+    elif bad:
         what = f"the typical {' and '.join(bad)} come out 0 or infinite"
     else:
         what = "a parameter of the compiled model comes out infinite or NaN"
@@ -806,6 +814,10 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
         if shift_deg is not None and shift_deg > resolved:
             problems.append(f"shift_deg must lie between 0 and the clearance (gear.backlash_deg, or a "
                             f"backlash effect's) = {resolved:g} deg, got {shift_deg!r}")
+        for i, ctrl in enumerate(controllers):
+            if ctrl is not None and not np.all(np.isfinite(np.delete(pack(plant, ctrl), L.P_VMAX))):
+                problems.append(f"{index('controllers', i)}: its values are too extreme to compute with: a "
+                                "gain comes out infinite in SI units (V/rad, 1/s, s); look for a value near 1e308")
         d0 = top.get("initial_delta_deg", 0.0)
         if abs(d0) > clearance / 2.0:
             problems.append(f"initial_delta_deg must lie within +-{clearance / 2.0:g} deg (half of "

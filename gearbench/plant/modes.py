@@ -265,7 +265,9 @@ def switch_mode(fx, which, x, p, modes, ref, f):
     if which == G_LEAVE:
         cm = modes[M_CONTACT]
         # Refuse a separation whose free-flight torque rate points straight
-        # back into contact (a graze at zero torque, not a separation).
+        # back into contact (a graze at zero torque, not a separation), or is 0:
+        # teeth at rest touching at zero force would leave and touch again at one
+        # instant, forever (docs/solver-notes.md, "States at exact rest").
         modes[M_CONTACT] = 0
         rhs(fx, x, p, modes, ref, f)  # f: scratch for the free-flight derivative
         n = p[P_N]
@@ -277,7 +279,7 @@ def switch_mode(fx, which, x, p, modes, ref, f):
             # (an offset e(theta_l) adds e' dw_l/dt; its curvature term e'' w_l^2 is left out)
             de = fx.mesh(p, load_angle(x, p))[1]
             rate = p[P_KMESH] * dd + p[P_DMESH] * (wp_dot / n - f[X_WL] + de * f[X_WL])
-        if cm * rate > 0.0:
+        if cm * rate >= 0.0:
             modes[M_CONTACT] = cm
         classify_damping(fx, x, p, modes)
         return 0

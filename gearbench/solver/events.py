@@ -92,21 +92,20 @@ def extrema(hh, x, f, xn, fn, idx, target, out, n):
 
 
 @nb.njit(_nrt=False)
-def _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt):
-    """Guard ``j`` was refused where the step starts (at zero, turning back)
-    but is >= 0 at its end: it may still cross later in the step.  Find where
-    it is back below zero and locate the crossing after that; -1 if it never
-    is."""
-    lo = 0.5
+def _crossing_after(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi, none):
+    """Guard ``j`` is at exactly 0 where the step starts and >= 0 at ``hi``: where it
+    crosses.  If it first goes below zero (it leaves the surface, and comes back later in
+    the step: a pinion that springs off its flank on the shaft and strikes it again), the
+    crossing after that (the probes halve from ``hi / 2``); else ``none`` (0: it was reached
+    already, where the step starts; -1: it never crosses, for a guard refused there)."""
+    lo = 0.5 * hi
     for _ in range(40):
         hermite(lo, hh, x, f, xn, fn, xi)
         m.guards(m.args, xi, p, modes, ref_t + slope * lo * hh, gt)
         if gt[j] < 0.0:
-            break
+            return locate(m, j, gt[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, hi, lo)
         lo *= 0.5
-    if gt[j] < 0.0:
-        return locate(m, j, gt[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0, lo)
-    return -1.0
+    return none
 
 
 @nb.njit(inline="always", _nrt=False)
@@ -118,7 +117,9 @@ def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1,
     already: a step re-taken to land on a root can end a round-off short of it
     (-4e-19), and the input recomputed for the next step puts the guard at
     exactly 0, which "< 0 to >= 0" would never see (profile 3, bang-bang,
-    rtol 3e-7: the first switch went unseen for 22 ms)."""
+    rtol 3e-7: the first switch went unseen for 22 ms).  Unless it goes below zero first
+    (``_crossing_after``): a state at rest on a switching surface, a mode just switched there,
+    would switch straight back and forth at one instant."""
     m.guards(m.args, x, p, modes, ref_t, g0)
     m.guards(m.args, xn, p, modes, ref_t + slope * hh, g1)
     which = -1
@@ -128,10 +129,9 @@ def first_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, g0, g1,
         if j != skip and g0[j] < 0.0 and g1[j] >= 0.0:
             th = locate(m, j, g0[j], t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0)
         elif j != skip and g0[j] == 0.0 and g1[j] > 0.0:
-            theta = 0.0
-            which = j
+            th = _crossing_after(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0, 0.0)
         elif j == skip and g1[j] >= 0.0:
-            th = _skipped_crossing(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt)
+            th = _crossing_after(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, 1.0, -1.0)
         if th >= 0.0 and (which < 0 or th < theta):
             theta = th
             which = j
@@ -161,6 +161,8 @@ def hidden_crossing(m, t, hh, x, f, xn, fn, p, modes, ref_t, slope, skip, which,
                     theta = th
                     which = j
             elif j != skip and g0[j] == 0.0 and g2[j] > 0.0:
-                theta = 0.0  # reached where the step starts (see first_crossing)
-                which = j
+                th = _crossing_after(m, j, t, hh, x, f, xn, fn, p, modes, ref_t, slope, xi, gt, tq, 0.0)
+                if which < 0 or th < theta:
+                    theta = th
+                    which = j
     return which, theta

@@ -39,6 +39,14 @@ STATUS_STEP_TOO_SMALL = 1
 STATUS_MAX_STEPS = 2
 STATUS_NONFINITE = 3
 
+FLUSH = 1e-12
+"""A state component below this fraction of its absolute tolerance is set to 0 after
+each accepted step.  The error control cannot see it, and left alone a decaying mode
+(a load ringing on a mesh without clearance against a stuck rotor) decays on into
+subnormal numbers: below ~1e-308 their arithmetic loses its precision, the error estimate
+with it, and a run that had taken 3 events per millisecond took 900,000 steps in 4 ms.
+The perturbation is 1e-12 of what every step already allows."""
+
 Table = namedtuple("Table", "t v s d t_end")
 """The input segments (s, input units, input units/s, disturbance) and the end time (s)."""
 Tolerance = namedtuple("Tolerance", "rtol atol scale hmax method max_steps")
@@ -64,6 +72,7 @@ def integrate(m, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hm
     outputs = np.full((t_out.size, m.n_out), np.nan)
     stats = np.zeros(N_SOLVER_STATS + m.n_stats)
     x = x0.copy()
+    _flush(x, atol)
     order, na = m.feedback(m.args, p)
     lin = (np.empty((na, n)), np.empty((na, 2 * na)), order, np.empty(n))
     v = np.empty((6, n))
@@ -172,7 +181,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
         if hh > 0.0:
             t1 = tb if last else t + hh
             io = _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work)
-            if not _advance(m, p, x, f, hh, ref_t + s * hh, vec, work, stats, mstats):
+            if not _advance(m, p, x, f, hh, ref_t + s * hh, tol.atol, vec, work, stats, mstats):
                 t = t1
                 break
             t = t1
@@ -253,12 +262,13 @@ def _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work):
 
 
 @nb.njit(inline="always", _nrt=False)
-def _advance(m, p, x, f, hh, ref_end, vec, work, stats, mstats):
+def _advance(m, p, x, f, hh, ref_end, atol, vec, work, stats, mstats):
     """Accept the step: the state and derivative move to its end.  False if
     the state became non-finite (the run stops)."""
     for i in range(state_count(m)):
         x[i] = vec.xn[i]
         f[i] = vec.fn[i]
+    _flush(x, atol)
     stats[S_STEPS] += 1
     for i in range(state_count(m)):
         if not math.isfinite(x[i]):
@@ -266,6 +276,14 @@ def _advance(m, p, x, f, hh, ref_end, vec, work, stats, mstats):
             return False
     m.after_step(m.args, x, p, work.modes, ref_end, hh, mstats)
     return True
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def _flush(x, atol):
+    """Set the components below ``FLUSH`` times their absolute tolerance to exactly 0."""
+    for i in range(x.shape[0]):
+        if abs(x[i]) < FLUSH * atol[i]:
+            x[i] = 0.0
 
 
 @nb.njit(inline="always", _nrt=False)
