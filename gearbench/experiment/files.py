@@ -454,18 +454,23 @@ _SCALES = {L.X_I: "current (motor.max_voltage / motor.resistance, A)", L.X_WM: "
            L.X_PHI: "shaft twist (rad)", L.X_DELTA: "mesh deflection (rad)", L.X_WL: "load speed (rad/s)"}
 
 
+def _computable(p: np.ndarray) -> bool:
+    """The compiled core's parameters ``p`` are finite (no drive limit packs as inf, by design)."""
+    return bool(np.all(np.isfinite(np.delete(p, L.P_VMAX))))
+
+
 def _extreme_problems(plant: Plant, where: str) -> list[str]:
     """Values each valid alone but too extreme to compute with together (a resistance of
     5e-324 ohm makes the typical current infinite): the solver's state scales and the
     compiled core's parameters must be finite and its scales positive."""
     try:
         scales = tolerance_scales(plant)
-        params = np.delete(pack_plant(plant), L.P_VMAX)  # no drive limit packs as inf, by design
+        computable = _computable(pack_plant(plant))
     except OverflowError:  # a float power past 1e308 (a leadscrew's radius squared)
         bad = None
     else:
         bad = [name for i, name in _SCALES.items() if not (math.isfinite(scales[i]) and scales[i] > 0)]
-        if not bad and np.all(np.isfinite(params)):
+        if not bad and computable:
             return []
     if bad is None:
         what = "a power of one of them overflows past 1e308"
@@ -815,7 +820,7 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
             problems.append(f"shift_deg must lie between 0 and the clearance (gear.backlash_deg, or a "
                             f"backlash effect's) = {resolved:g} deg, got {shift_deg!r}")
         for i, ctrl in enumerate(controllers):
-            if ctrl is not None and not np.all(np.isfinite(np.delete(pack(plant, ctrl), L.P_VMAX))):
+            if ctrl is not None and not _computable(pack(plant, ctrl)):
                 problems.append(f"{index('controllers', i)}: its values are too extreme to compute with: a "
                                 "gain comes out infinite in SI units (V/rad, 1/s, s); look for a value near 1e308")
         d0 = top.get("initial_delta_deg", 0.0)
