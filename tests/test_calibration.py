@@ -136,3 +136,42 @@ def test_datasheet_values_off_come_back_to_the_truth():
     # the fit stops (xtol) at 1.055x the noise floors where the truth's values give 0.962x: the damping
     # the record barely sees is 9 % off (measured 2026-11-25); restarted there it stays
     assert res.weighted_rms <= 1.1 * evaluate(replay, scorer, truth).weighted_rms
+
+
+def test_a_fit_restarts_after_a_stall_and_keeps_its_best_converged_end(monkeypatch):
+    """``fit(restarts=n)``: after a stop on xtol it starts again from where it stopped, while that
+    gains more than RESTART_GAIN; a restart that gains less, or does not converge, is dropped and
+    the fit it started from kept (scipy's least squares replaced by a script of its ends)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from gearbench.identify import fit as fit_module
+    from gearbench.identify.fit import Free
+
+    plant = load_plant(RIG)
+    replay = Replay(_record(plant, seconds=0.5))
+    free = [Free.plant(plant, "motor.resistance")]
+
+    def run(script, restarts):
+        calls = []
+
+        def scripted(fun, z0, **kw):
+            calls.append(float(z0[0]))
+            status, cost, z = script[len(calls) - 1]
+            return SimpleNamespace(x=np.array([z]), cost=cost, status=status, nfev=5, jac=np.ones((1, 1)),
+                                   message=f"end {len(calls)}")
+        monkeypatch.setattr(fit_module, "least_squares", scripted)
+        return fit(replay, plant, free, restarts=restarts), calls
+
+    xtol, gtol, budget = 3, 1, 0
+    r, calls = run([(xtol, 10.0, 1.1), (xtol, 5.0, 1.2), (xtol, 4.999, 1.3)], restarts=3)
+    assert calls == pytest.approx([1.0, 1.1, 1.2])  # each restart starts where the last stopped (scaled)
+    assert r.converged and r.values["motor.resistance"] == pytest.approx(1.2 * plant.motor.resistance)
+    assert r.message == "end 2 (restarted 2x)" and r.nfev == 15
+    r, calls = run([(xtol, 10.0, 1.1), (budget, 1.0, 1.5)], restarts=3)  # a better end that did not converge
+    assert r.converged and r.values["motor.resistance"] == pytest.approx(1.1 * plant.motor.resistance)
+    r, calls = run([(xtol, 10.0, 1.1), (gtol, 5.0, 1.2), (xtol, 1.0, 1.3)], restarts=3)  # converged: no more
+    assert len(calls) == 2 and r.values["motor.resistance"] == pytest.approx(1.2 * plant.motor.resistance)
+    r, calls = run([(xtol, 10.0, 1.1)], restarts=0)
+    assert len(calls) == 1 and r.message == "end 1"

@@ -10,11 +10,12 @@ import pytest
 
 from gearbench.experiment.files import load_plant
 from gearbench.identify import search
-from gearbench.identify.diagnose import Candidate, Tried, _rank, diagnose, try_candidate
+from gearbench.identify import diagnose as diagnose_module
+from gearbench.identify.diagnose import Candidate, Tried, _fit_pairs, _rank, diagnose, try_candidate
 from gearbench.identify.evidence import location_text, signal_evidence
 from gearbench.identify.fit import Free, FitResult, Scorer, fit, get_value, own_jacobian, set_values
 from gearbench.identify.replay import Replay
-from gearbench.plant.effects import AddedEffect
+from gearbench.plant.effects import REGISTRY, AddedEffect
 from gearbench.identify.synth import excitation, synthesize
 from studies.hidden_effects import PLANTS
 
@@ -142,26 +143,51 @@ def test_a_stribeck_fit_never_ends_below_its_sliding_level():
     assert t.params["coulomb_torque"] == pytest.approx(0.6, rel=0.15)
 
 
+def test_a_declared_confounder_is_paired_whatever_it_ranks_alone(monkeypatch):
+    """The pairs of the six best effects, plus each of them with the best place of an effect
+    declared confounded with it (either way: the bias declares Coulomb and Stribeck friction and
+    the spring), never twice and never two dry frictions; an undeclared low-ranked effect is not
+    paired."""
+    plant = _rig()
+    ranked = ["stribeck_friction", "amplifier_deadzone", "coulomb_friction", "viscous_friction",
+              "sensor_delay", "shaft_compliance", "encoder_quantization", "bias_torque"]
+    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+                   {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
+    tried.insert(3, Tried(Candidate("bias_torque", {}), None))  # a failed fit of another place does not count
+    monkeypatch.setattr(diagnose_module, "_map", lambda fn, jobs, workers, progress: jobs)
+    pairs = {frozenset((j[3].candidate.name, j[4].candidate.name)) for j in
+             _fit_pairs(None, None, plant, tried, (), (), None, diagnose_module._Tracker(None))}
+    top = ranked[:6]
+    expected = {frozenset((a, b)) for i, a in enumerate(top) for b in top[i + 1:]
+                if {a, b} != {"stribeck_friction", "coulomb_friction"}}
+    expected |= {frozenset(("stribeck_friction", "bias_torque")), frozenset(("coulomb_friction", "bias_torque"))}
+    assert pairs == expected
+    assert all(frozenset((a, "encoder_quantization")) not in pairs for a in top)
+
+
 @pytest.mark.slow
 def test_coulomb_friction_with_a_bias_on_one_shaft_is_resolved():
     """The documented limit of the greedy ladder (tests/test_diagnose.py): Coulomb friction
-    0.6 N m at the load with a bias torque 0.4 N m.  The ladder ends with both, each within
-    15 %, and within 1.2x the noise floor.  Not by the pair at the first rung, on 2026-11-26:
-    the bias alone does not rank among the PAIR_TOP effects there, so Coulomb + bias is never
-    refitted jointly; the ladder adds Stribeck (simplified to Coulomb), a load spring whose rest
-    angle of 14,814 deg makes it a constant torque (the bias in disguise), Coulomb at the motor and
-    the bias, then takes the spring and the motor's Coulomb back out: Coulomb 0.604 and bias 0.403
-    N m at 1.00x the noise floor, stopped at max_steps (103 s on 2 cores)."""
+    0.6 N m at the load with a bias torque 0.4 N m.  Resolved by the pair at the first rung:
+    alone, the bias ranks below the six best effects (the friction explains most of what it
+    does), but it declares itself confounded with dry friction (``BiasTorque.confounders``),
+    so it is refitted jointly with Stribeck friction, which the joint fit takes to Coulomb's
+    level (``_simplify``).  The ladder is exactly the two effects, each within 15 %, ending at
+    the noise floor (2026-11-26: 0.6000 and 0.4000 N m, 0.98x over all signals, 19 s on 2 cores;
+    without the declaration it wandered through a spring and Coulomb friction at the motor,
+    took them back out and stopped at max_steps, 103 s)."""
     plant = _rig()
     hidden = [AddedEffect("coulomb_friction", {"location": "load", "torque": 0.6}),
               AddedEffect("bias_torque", {"torque": 0.4})]
     d = diagnose(plant, Replay(record(plant, hidden)))
+    assert [(s.action, s.effect) for s in d.ladder] == [("add", "coulomb_friction"), ("add", "bias_torque")], \
+        d.to_json()["ladder"]
     final = {e.name: e.values for e in d.plant.effects}
-    assert set(final) == {"coulomb_friction", "bias_torque"}, d.to_json()["ladder"]
     assert final["coulomb_friction"]["location"] == "load"
     assert final["coulomb_friction"]["torque"] == pytest.approx(0.6, rel=0.15)
     assert final["bias_torque"]["torque"] == pytest.approx(0.4, rel=0.15)
-    assert d.ladder[-1].error <= 1.2 * d.noise_floor, (d.ladder[-1].error, d.noise_floor)
+    assert d.stopped == "noise floor" and d.ladder[-1].error <= 1.2 * d.noise_floor, (d.ladder[-1].error,
+                                                                                       d.noise_floor)
 
 
 def test_a_backlash_hidden_in_a_plant_written_without_one_is_found():

@@ -117,6 +117,17 @@ def test_a_module_that_fails_to_import_names_the_file_and_the_error(tmp_path):
     assert not any(m.startswith("gearbench_effect_broken") for m in sys.modules)
 
 
+def test_confounders_given_as_one_string_are_named(tmp_path):
+    """``confounders = "bias_torque"`` (a string, not a tuple) would be read letter by letter."""
+    bad = tmp_path / "stringy.py"
+    bad.write_text("from gearbench.plant.effects.base import Effect, register\n\n"
+                   "@register\nclass Stringy(Effect):\n    name = 'stringy'\n    signature = 'a constant'\n"
+                   "    confounders = 'bias_torque'\n")
+    with pytest.raises(ConfigError) as err:
+        load_plant(rig_with(["stringy.py"], tmp_path))
+    assert "confounders must be a tuple of effect names" in str(err.value) and str(bad) in str(err.value)
+
+
 # ------------------------------------------------------------ the example effects
 
 ONLY = ("cogging", "transmission_error", "load_spring", "bias_torque")

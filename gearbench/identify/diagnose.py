@@ -21,9 +21,10 @@ Confounded pairs (Coulomb friction + a bias, a spring + a bias): each alone
 explains part of the other's residual, so the best single candidate can be a
 third effect that mimics both.  When the best single leaves more than noise
 and the ladder has room for two rungs, the ``PAIR_TOP`` best candidates are
-refitted in pairs jointly (the best place of each of the ``PAIR_TOP`` best effects,
-from the best of their single fits and a scan of both effects' parameters; ``k`` counts both
-effects' parameters).  The pair of lowest BIC is taken when it beats both the
+refitted in pairs jointly (the best place of each of the ``PAIR_TOP`` best effects, and of
+each of them with the effects it is declared confounded with, ``Effect.confounders``, wherever
+those rank alone; from the best of their single fits and a scan of both effects' parameters;
+``k`` counts both effects' parameters).  The pair of lowest BIC is taken when it beats both the
 current model and the best single candidate by the criterion that adds an
 effect (``_accepts``); it then takes two rungs, each with its explanation:
 first its member that ranked higher alone (its single fit), then the other
@@ -69,6 +70,7 @@ MIN_BIC_DROP = 10.0
 MIN_ERROR_DROP = 0.03      # the primary error must fall by 3 % at least
 AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is explained
 JOINT_TOP = 3              # candidates refitted jointly with the effects already added
+CALIBRATION_RESTARTS = 3    # the calibration fit restarts on a stall (fit)
 PAIR_TOP = 6               # effects whose best places are refitted jointly in pairs (15 pairs at most)
 
 
@@ -234,6 +236,12 @@ class Pair:
 DRY = ("sign of the speed", "stick and breakaway")  # signatures of dry friction
 
 
+def _confounders(name: str) -> set[str]:
+    """The effects declared confounded with ``name``, by it or by them (``Effect.confounders``)."""
+    return ({n for n in REGISTRY[name].confounders if n in REGISTRY}
+            | {n for n, e in REGISTRY.items() if name in e.confounders})
+
+
 def _pairable(a: Tried, b: Tried) -> bool:
     """Two different effects, neither the other's simpler form in the same place (Stribeck and
     Coulomb friction at one shaft are rivals, which ``_simplify`` settles, not a pair), and not
@@ -279,14 +287,20 @@ def _run_pair(args):
 
 def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers, track: _Tracker) -> list[Pair]:
     """Every pairable pair (:func:`_pairable`) of the best places of the ``PAIR_TOP`` best effects,
-    fitted jointly (the best few candidates are often one effect in several places)."""
-    top = []
+    and of each of them with the best place of each effect it is confounded with (``confounders``,
+    either way) wherever that ranked, fitted jointly (the best few candidates are often one effect
+    in several places; a bias hidden with Coulomb friction ranks low alone, as the friction
+    explains most of what it does)."""
+    best = {}
     for t in tried:
-        if t.ok and all(t.candidate.name != u.candidate.name for u in top):
-            top.append(t)
-    top = top[:PAIR_TOP]
-    jobs = [(replay, scorer, plant, a, b, free_plant, refit)
-            for i, a in enumerate(top) for b in top[i + 1:] if _pairable(a, b)]
+        if t.ok:
+            best.setdefault(t.candidate.name, t)
+    top = list(best.values())[:PAIR_TOP]
+    names = {t.candidate.name for t in top}
+    pairs = [(a, b) for i, a in enumerate(top) for b in top[i + 1:]]
+    pairs += [(a, best[name]) for a in top for name in sorted(_confounders(a.candidate.name))
+              if name in best and name not in names]
+    jobs = [(replay, scorer, plant, a, b, free_plant, refit) for a, b in pairs if _pairable(a, b)]
     return _map(_run_pair, jobs, workers, track.stage("pairs", len(jobs)))
 
 
@@ -561,15 +575,17 @@ def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> 
     return _refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)))
 
 
-def _refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = False) -> FitResult | None:
+def _refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = False,
+           restarts: int = 0) -> FitResult | None:
     """``plant`` with the free plant values ``free_plant`` (paths or ``Free``s) and the parameters
     of the effects numbered in ``effects`` fitted jointly (scored as it is when there are none);
-    None when it cannot be simulated or does not converge.  ``central``: see :func:`fit`."""
+    None when it cannot be simulated or does not converge.  ``central``, ``restarts``: see :func:`fit`."""
     frees = plant_frees(plant, free_plant)
     for j in effects:
         frees += Free.effect(plant, j)
     try:
-        r = fit(replay, plant, frees, scorer, central=central) if frees else evaluate(replay, scorer, plant)
+        r = (fit(replay, plant, frees, scorer, central=central, restarts=restarts) if frees
+             else evaluate(replay, scorer, plant))
     except (ReplayError, ValueError):
         return None
     return r if r.converged else None
@@ -728,7 +744,8 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
             best = tried[0] if tried and tried[0].ok else None
             if cal.frees and cal_step is None:
                 track.stage("calibration")
-                cal_res = _refit(replay, scorer, current, refitted + tuple(cal.frees), added, central=True)
+                cal_res = _refit(replay, scorer, current, refitted + tuple(cal.frees), added, central=True,
+                                 restarts=CALIBRATION_RESTARTS)
                 if cal_res is not None and _accepts(current_res, cal_res) and (
                         best is None or not _accepts(current_res, best.result) or cal_res.bic <= best.result.bic):
                     cal_step = CalibrationStep(len(ladder), current_res, cal_res)

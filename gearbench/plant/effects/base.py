@@ -13,6 +13,11 @@ everything the rest of gearbench needs:
 * ``signature``: what a record shows when the model lacks it, a key of
   :data:`gearbench.identify.evidence.SIGNATURES` (``"sign of the speed"`` for
   Coulomb friction, ``"a lag"`` for a delay, ...): diagnose's explanations measure it;
+* ``confounders`` (optional): names of effects whose signature this one's mimics
+  in part, so that either alone explains some of the other's residual (a bias
+  and Coulomb friction are both a constant while the load turns one way).
+  Diagnose refits such a pair jointly whatever the members rank alone; the
+  relation goes both ways, so one side declaring it is enough;
 
 and acts in one of three ways:
 
@@ -91,6 +96,7 @@ class Effect:
     name: ClassVar[str] = ""
     acts_on: ClassVar[str] = ""
     signature: ClassVar[str] = ""
+    confounders: ClassVar[tuple[str, ...]] = ()  # effects fitted with this one in pairs whatever their rank
     params: ClassVar[tuple[Param, ...]] = ()
     options: ClassVar[dict[str, tuple[str, ...]]] = {}
     settings: ClassVar[dict[str, tuple[str, ...]]] = {}  # string choices diagnose does not try; first = default
@@ -191,6 +197,10 @@ def register(cls):
     if cls.friction is not None and (cls.term is None or set(cls.places) - {"motor", "load"}):
         raise ValueError(f"effect {cls.name!r}: a stick-slip law (friction) needs a term acting at "
                          f"'motor' or 'load' only, as its regularized form")
+    if isinstance(cls.confounders, str) or not all(isinstance(n, str) for n in cls.confounders):
+        # a bare string would be taken letter by letter
+        raise ValueError(f"effect {cls.name!r}: confounders must be a tuple of effect names, "
+                         f"not {cls.confounders!r}")
     cls.source = None if inside else path
     REGISTRY[cls.name] = cls()
     REVISION[0] += 1

@@ -27,6 +27,8 @@ class BiasTorque(Effect):
     """A constant torque (or carriage force) on the load."""
     name = "bias_torque"
     signature = "a constant"
+    # while the load turns one way, dry friction is a constant too; a spring's rest angle is one
+    confounders = ("coulomb_friction", "stribeck_friction", "load_spring")
     acts_on = "load torque"
     options = {"location": ("load", "carriage")}
     params = (Param("torque", "N m (N at the carriage: force)", -1e6, 1e6, _scale,
