@@ -142,12 +142,19 @@ def test_ctrl_c_reaches_the_workers_without_a_traceback(tmp_path):
 
 
 IDLE_SCRIPT = textwrap.dedent("""
-    import time
+    import os, time
     from gearbench.workers import process_pool
+
+    def pid(_):
+        time.sleep(0.01)
+        return os.getpid()
 
     try:
         with process_pool(2) as pool:
-            list(pool.map(abs, range(4)))   # the workers are up, and now wait for work
+            # both workers have run a task (so their initializer, which ignores SIGINT: a Ctrl-C
+            # before it is a race of the test, not of the pool), and now wait for work
+            while len(set(pool.map(pid, range(8)))) < 2:
+                pass
             print("ready", flush=True)
             time.sleep(60)
     except KeyboardInterrupt:
