@@ -87,7 +87,7 @@ Open work (issue 17)."""
 
 @pytest.mark.parametrize("case", [pytest.param("p04-like"), pytest.param("other way", marks=pytest.mark.slow)])
 def test_datasheet_values_off_and_nothing_missing_give_no_verdict(case):
-    """(2 cores, 2026-11-26: p04-like 58 s, other way 51 s)"""
+    """(2 cores, 2026-11-26: p04-like 58 s, other way 46 s)"""
     truth = load_plant(RIG)
     d = diagnose(datasheet(truth, OFF[case]), Replay(record(truth)), max_steps=2)
     assert d.verdict is None, (d.reason, d.to_json()["ladder"])
