@@ -25,10 +25,12 @@ run: install
 	$(BIN)/gearbench validate
 	$(BIN)/gearbench run experiments/table1_translational.yaml
 	$(BIN)/gearbench run experiments/compensators.yaml
+	# --fresh: the store keeps the points of every earlier physics (their keys hash the source), so
+	# without it the committed sweep.csv gains a stale copy of each point at every change of the physics
 	$(BIN)/gearbench sweep experiments/gain_scan.yaml --param controller.kp=0.5,5,50,500,5000 \
-		--summary results/gain_scan.md
+		--summary results/gain_scan.md --fresh
 	$(BIN)/gearbench sweep experiments/gain_scan.yaml --param "controller.kp=geomspace(50,5000,11)" \
-		--results results/gain_scan_fine --summary results/gain_scan.md
+		--results results/gain_scan_fine --summary results/gain_scan.md --fresh
 	$(BIN)/gearbench stability experiments/plants/thesis_gear.yaml --controller p \
 		--at 0.5,1,5,50,88,126,500,1256,1448,5000 --markdown results/gain_scan.md
 	$(BIN)/gearbench stability experiments/plants/thesis_gear.yaml --controller pi --ki 0.005 \
