@@ -538,7 +538,8 @@ def run_experiment(experiment: Experiment | str | Path, *, workers: int | None =
 
 # ------------------------------------------------------ models against data
 
-def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float, where: str):
+def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float, where: str,
+            noise_std: Mapping | None = None):
     """Plant, record and replay, every argument checked before any solving (as the CLI's ``_setup``)."""
     from .control.sampled import SampledPV
     from .experiment.controller_file import load_controller
@@ -554,7 +555,11 @@ def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float
         problems.append(f"controller must be None (open loop), a controller file path or a SampledPV, "
                         f"got {show(controller)}")
     _raise(where, problems)
-    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3))
+    if noise_std is not None and not isinstance(noise_std, Mapping):
+        _raise(where, [f"noise_std must be a mapping {{column: standard deviation in its unit}}, got "
+                       f"{show(noise_std)}"])
+    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3),
+                    noise_std=None if noise_std is None else dict(noise_std))
     replay.check(plant)
     return plant, data, replay
 
@@ -647,7 +652,8 @@ class Comparison:
 
 
 def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
-            controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6) -> Comparison:
+            controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
+            noise_std: Mapping[str, float] | None = None) -> Comparison:
     """Drive the model as the record was driven and measure where it fails.
 
     Parameters
@@ -665,6 +671,14 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
         ``window_s`` s, so an integrating plant does not drift; 0 = never.
     rtol : float
         Solver relative tolerance.
+    noise_std : dict, optional
+        The measurement noise of some compared columns, ``{column: standard
+        deviation}`` in each column's unit (e.g. ``{"load_angle_deg": 0.015}``),
+        where it is known (a record of the machine at rest, the sensor's
+        datasheet): it is that column's noise floor and weight, and the least
+        drift a window's reset acts on.  Default: read from the record's third
+        differences, which assumes white noise (coloured noise shows there only
+        in part).
 
     Returns
     -------
@@ -690,7 +704,7 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     """
     from .identify.compare import comparison
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare")
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std)
     return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
@@ -787,7 +801,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
              controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
              free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
              workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
-             time_limit_s: float | None = None, progress=None) -> DiagnosisReport:
+             time_limit_s: float | None = None, progress=None,
+             noise_std: Mapping[str, float] | None = None) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -802,6 +817,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         Open-loop re-initialisation interval, s (0 = never).
     rtol : float
         Solver relative tolerance.
+    noise_std : dict, optional
+        The measurement noise of some compared columns, as in :func:`compare`.
     free : sequence of str
         Plant parameters refitted with every candidate, e.g. ``("leadscrew.mass",)``.
     only : sequence of str
@@ -872,7 +889,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         problems += [f"only: unknown effect {n!r}; the library has {', '.join(REGISTRY)}"
                      for n in only if n not in REGISTRY]
     _raise(where, problems)
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)
     from .identify.fit import Free
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
@@ -998,7 +1015,8 @@ class FitReport:
 def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, effect: str, *,
         options: Mapping | None = None, start: Mapping | None = None, free: Sequence[str] = (),
         refit: bool = False, controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
-        max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None) -> FitReport:
+        max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None,
+        noise_std: Mapping[str, float] | None = None) -> FitReport:
     """Add an effect to a plant and fit its parameters (and ``free`` plant parameters) to a record.
 
     Without a ``location`` in ``options`` every place the effect may act is
@@ -1026,6 +1044,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         Open-loop re-initialisation interval, s (0 = never).
     rtol : float
         Solver relative tolerance.
+    noise_std : dict, optional
+        The measurement noise of some compared columns, as in :func:`compare`.
     max_evals : int, optional
         Most simulations the least-squares fit may spend (default 40 per parameter + 40).
     calibrate : bool
@@ -1075,7 +1095,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         problems.append(f"free must be a sequence of strings, got {show(free)}")
     _check_scheduler(scheduler, problems)
     _raise(where, problems)
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)
     try:
         tried = fit_candidates(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate),
                                scheduler)

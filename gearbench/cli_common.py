@@ -123,3 +123,24 @@ class Group(click.Group):
                 raise
             interrupted("stopped before the command finished; files are written whole or not at "
                         "all, so none is left half-written")
+
+
+def parse_noise(specs: tuple[str, ...], positive: bool = False) -> dict[str, float]:
+    """``("current_A=0.01", ...)`` -> ``{"current_A": 0.01}``; ``all=STD`` sets every signal
+    (the key ``"*"``), later entries win.  ``positive``: a standard deviation of 0 is refused too
+    (a stated noise is a residual's weight)."""
+    out: dict[str, float] = {}
+    least = "> 0" if positive else ">= 0"
+    for spec in specs:
+        key, eq, value = spec.partition("=")
+        key = key.strip()
+        try:
+            std = float(value)
+        except ValueError:
+            std = math.nan
+        if not eq or not key or not (math.isfinite(std) and (std > 0 if positive else std >= 0)):
+            example = "load_angle_deg=0.01" if positive else "load_angle_deg=0.01, or all=0 for none"
+            raise ValueError(f"--noise {spec!r} must be SIGNAL=STD with a standard deviation {least} "
+                             f"in the signal's unit (e.g. {example})")
+        out["*" if key == "all" else key] = std
+    return out

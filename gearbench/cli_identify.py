@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, stdout
+from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, parse_noise, stdout
 
 
 _common = [
@@ -24,6 +24,12 @@ _common = [
                  help="Open loop: re-initialise the model's angles from the record every WINDOW s (at the "
                       "slowest sample near each boundary), so an integrating plant does not drift; 0 = never."),
     click.option("--rtol", type=float, default=1e-6, show_default=True, help="Solver relative tolerance."),
+    click.option("--noise", "noise", multiple=True, metavar="SIGNAL=STD",
+                 help="The measurement noise of a compared column, a standard deviation in its unit, where you "
+                      "know it (a record of the machine at rest, the sensor's datasheet); all=STD for every "
+                      "column; repeatable.  It is the column's noise floor and weight, and the least drift a "
+                      "window's reset acts on.  Default: read from the record's third differences, which "
+                      "assumes white noise."),
 ]
 
 
@@ -37,8 +43,8 @@ def common(f):
 
 
 
-def _setup(plant_file, data_file, controller_file, window_s, rtol):
-    """Plant, record and replay, every file checked before any solving."""
+def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=()):
+    """Plant, record and replay, every file and ``--noise`` checked before any solving."""
     from .experiment.controller_file import load_controller
     from .experiment.files import load_plant
     from .identify.replay import Replay
@@ -48,7 +54,13 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol):
     plant = load_plant(plant_file)
     data = read_measurement(data_file, context_column_map())
     controller = load_controller(controller_file) if controller_file else None
-    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3))
+    stated = parse_noise(noise, positive=True)
+    if "*" in stated:
+        every = list(data.signals) + ([data.input_name] if controller else [])
+        std = stated.pop("*")
+        stated = {**{n: std for n in every}, **stated}
+    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3),
+                    noise_std=stated or None)
     replay.check(plant)
     return plant, data, replay
 
@@ -82,7 +94,7 @@ def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Pat
 @click.option("--lags", type=click.IntRange(min=1), default=25, show_default=True,
               help="Residual tests: the largest lag, in samples, of the residual's autocorrelation (0..LAGS) "
                    "and of its cross-correlation with the input (-LAGS..LAGS).")
-def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_json, lags):
+def compare(plant_file, data_file, controller_file, window_s, rtol, noise, results, as_json, lags):
     """Drive the model as the record was driven and show where it fails.
 
     For each measured signal: RMS and maximum error in its unit, the noise
@@ -100,7 +112,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
     from .report.compare import comparison_figure, residual_figure, residual_tests_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
-        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise)
         c = comparison(replay, plant, lags=lags)
     except _errors() as exc:
         _fail(exc)
@@ -203,8 +215,10 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, results, as_
                    "simulated) in that signal's unit, the same metric and unit as baseline_error (named in "
                    "'error_signal' and 'error_unit'): the output angle or position in open loop, the input "
                    "(e.g. the drive force) in closed loop.  'stopped' says why the ladder ended: \"noise floor\", "
-                   "\"nothing pays\", \"max steps\" or \"time limit\".")
-def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only, calibrate, max_steps, time_limit_s,
+                   "\"nothing pays\", \"max steps\" or \"time limit\".  'noise_floors': each signal's floor, "
+                   "unit and whether it was stated (--noise); 'residual_tests': the final model's, per signal "
+                   "(white, input_independent, lag1, ljung_box_p, sentence).")
+def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, free, only, calibrate, max_steps, time_limit_s,
              workers, scheduler, quiet, results, as_json):
     """Which physical effect is the model missing?
 
@@ -228,7 +242,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, free, only,
     from .report.compare import ladder_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
-        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise)
         names = tuple(n.strip() for n in only.split(",") if n.strip())
         with _ladder_progress(disable=quiet or as_json) as show:
             d = run_diagnosis(plant, replay, tuple(free), max_steps, workers, progress=show, only=names,
@@ -354,7 +368,7 @@ def _rows(d):
               help="Print {converged, effect, values, stderr, units, correlation (parameter -> parameter -> "
                    "correlation of the two estimates), error_before, error_after, error_signal, "
                    "output, tried} as one JSON object on stdout instead of the table.")
-def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, free, refit, calibrate, max_evals,
+def fit(plant_file, data_file, controller_file, window_s, rtol, noise, effect_spec, free, refit, calibrate, max_evals,
         scheduler, output, as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
@@ -372,7 +386,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, effect_spec, fre
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic
     try:
-        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol)
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise)
         item = parse_effect(effect_spec)
         name = item.pop("type")
         if name not in REGISTRY:

@@ -9,14 +9,13 @@ is known.  See ``gearbench.identify.synth``.
 """
 from __future__ import annotations
 
-import math
 import shlex
 import time
 from pathlib import Path
 
 import click
 
-from .cli_common import _fail, console, echo_json
+from .cli_common import parse_noise, _fail, console, echo_json
 
 
 def _number_or_text(text: str):
@@ -81,24 +80,6 @@ def check_effects(specs: tuple[str, ...], plant) -> list:
     if problems:
         raise ConfigError("--effect", problems)
     return list(hidden)
-
-
-def parse_noise(specs: tuple[str, ...]) -> dict[str, float]:
-    """``("current_A=0.01", ...)`` -> ``{"current_A": 0.01}``; ``all=STD`` sets every signal
-    (the key ``"*"``), later entries win."""
-    out: dict[str, float] = {}
-    for spec in specs:
-        key, eq, value = spec.partition("=")
-        key = key.strip()
-        try:
-            std = float(value)
-        except ValueError:
-            std = math.nan
-        if not eq or not key or not (math.isfinite(std) and std >= 0):
-            raise ValueError(f"--noise {spec!r} must be SIGNAL=STD with a standard deviation >= 0 "
-                             "in the signal's unit (e.g. load_angle_deg=0.01, or all=0 for none)")
-        out["*" if key == "all" else key] = std
-    return out
 
 
 def _command_line(plant_file, effects, excitation, duration, sample_time, noise, signals, seed, output,

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..measure.noise import noise_floor
 from ..measure.phases import classify_phases, error_shares, smoothed_speed
 from .fit import primary_signal
 from .replay import Replay
@@ -24,7 +23,7 @@ def comparison(replay: Replay, plant, sim: dict | None = None, lags: int | None 
     rows = []
     for name, r in res.items():
         y = replay.measured(name)
-        nf = noise_floor(y)
+        nf = replay.noise_floor(name)
         unit = replay.data.signal_unit(name) if name in replay.data.signals else replay.data.input_unit
         rms = float(np.sqrt(np.mean(r ** 2)))
         rows.append({"signal": name, "unit": unit, "rms_error": rms, "max_error": float(np.max(np.abs(r))),

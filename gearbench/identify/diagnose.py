@@ -56,6 +56,7 @@ from ..plant.effects import REGISTRY, AddedEffect
 from .evidence import explain, signal_evidence
 from .fit import Free, FitResult, Scorer, evaluate, fit, get_value, plant_frees
 from .replay import Replay, ReplayError
+from .residuals import DEFAULT_LAGS, replay_residual_tests
 from . import calibration, search
 from .executor import Executor
 from .uncertainty import strong_correlations
@@ -405,6 +406,8 @@ class Diagnosis:
     calibration: dict = field(default_factory=dict)  # calibration.Plan.report of the final model
     calibration_step: CalibrationStep | None = None
     stopped: str = ""  # why the ladder ended: one of STOPPED
+    noise: dict = field(default_factory=dict)  # column -> {floor, unit, stated}
+    residual_tests: dict = field(default_factory=dict)  # column -> residuals.ResidualTest of the final model
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -431,6 +434,11 @@ class Diagnosis:
         ``calibration_step``: when calibration paid, after how many ladder steps, the error
         after it and its BIC change, else null.
         ``stopped``: why the ladder ended, one of :data:`STOPPED` (``reason`` says it in words).
+        ``noise_floors``: per compared column its noise ``floor`` (the residuals' weight), ``unit``,
+        and whether it was ``stated`` (``Replay.noise_std``) or read from the record.
+        ``residual_tests``: per compared column, the final model's residual tests
+        (``residuals.ResidualTest``: ``white``, ``input_independent``, ``lag1`` its lag-1
+        autocorrelation, ``ljung_box_p``, ``sentence``).
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
@@ -461,11 +469,58 @@ class Diagnosis:
                         "plant_params": s.plant_params, "explanation": s.explanation,
                         "correlations": s.correlations}
                        for s in self.ladder],
+            "noise_floors": self.noise,
+            "residual_tests": {name: {"input": t.input_name, "white": t.white,
+                                      "input_independent": t.input_independent,
+                                      "lag1": float(t.autocorrelation[1]), "ljung_box_p": t.ljung_box_p,
+                                      "sentence": t.sentence()}
+                               for name, t in self.residual_tests.items()},
             "calibration": self.calibration,
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
                 "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
         }
+
+
+NOT_IN_LIBRARY = "; the missing physics is not in the library"
+
+
+def _noise(replay: Replay, scorer: Scorer) -> dict:
+    """Per weighed column: its noise floor, unit and whether it was stated."""
+    def unit(n):
+        return replay.data.signal_unit(n) if n in replay.data.signals else replay.data.input_unit
+    return {n: {"floor": f, "unit": unit(n), "stated": n in replay.noise_std} for n, f in scorer.floors.items()}
+
+
+def _residual_tests(replay: Replay, plant: Plant, res: FitResult) -> dict:
+    """The residual tests (``residuals.replay_residual_tests``) of the final model; {} where the
+    windows are too short for them."""
+    sim = res.sim if res.sim is not None else replay.run(plant)
+    try:
+        return replay_residual_tests(replay, plant, replay.residuals(sim), DEFAULT_LAGS)
+    except ValueError:
+        return {}
+
+
+def _not_driven(reason: str, tests: dict, replay: Replay) -> str:
+    """``reason`` of a ladder that ended above the noise floor, with what the residual tests say when
+    the residual is independent of the input on every compared column: then no effect the input drives
+    is missing, and what is left is noise (coloured: the floors read from a record's differences assume
+    white noise and see a quarter of an AR(1) noise of lag-1 correlation 0.9) or a disturbance."""
+    if not tests or not all(t.input_independent for t in tests.values()):
+        return reason
+    u = next(iter(tests.values())).input_name
+    coloured = [f"{n} {t.autocorrelation[1]:.2f}" for n, t in tests.items() if not t.white]
+    colour = f" but not white (lag-1 autocorrelation {', '.join(coloured)})" if coloured else ""
+    if all(n in replay.noise_std for n in tests):
+        cause = "noise larger than stated, or a disturbance the input does not drive"
+    else:
+        cause = ("noise that is not white, whose level the floors read from the record's differences "
+                 "underestimate (state it where you know it: --noise SIGNAL=STD, noise_std in Python), "
+                 "or a disturbance the input does not drive")
+    return (reason.replace(NOT_IN_LIBRARY, "") + f". The residual left is independent of the input {u} on "
+            f"every signal{colour}: what the model misses is not driven by the input, so it is not missing "
+            f"physics; it is {cause}")
 
 
 def _correlated(res: FitResult) -> list[dict]:
@@ -708,9 +763,14 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
 
     def _result() -> Diagnosis:
         verdict = ladder[rungs[0]].effect if rungs else None
+        tests = {} if stopped == "interrupted" else _residual_tests(replay, current, current_res)
+        said = reason
+        if stopped == "nothing pays" and current_res.weighted_rms > AT_NOISE:
+            said = _not_driven(reason, tests, replay)
         return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
-                         reason, current, base, base.plant, scorer.relative_pct(base.sim),
-                         cal.report(current, current_res.stderr, cal_step is not None), cal_step, stopped)
+                         said, current, base, base.plant, scorer.relative_pct(base.sim),
+                         cal.report(current, current_res.stderr, cal_step is not None), cal_step, stopped,
+                         _noise(replay, scorer), tests)
 
     step = 0
     try:
@@ -773,7 +833,7 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                 else:
                     reason = (f"no candidate explains the residual: the error {current_res.error:.4g} {unit} stays "
                               f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
-                              f"{unit}){calibrated} and {gain}; the missing physics is not in the library")
+                              f"{unit}){calibrated} and {gain}{NOT_IN_LIBRARY}")
                 break
             pair = _better_pair(replay, scorer, current, current_res, best, tried, refitted, added, workers,
                                 track) if len(ladder) + 2 <= max_steps else None

@@ -27,7 +27,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..measure.noise import noise_floor
 from ..plant.components import FITTABLE, Plant
 from ..plant.effects import AddedEffect
 from .replay import Replay, ReplayError
@@ -189,7 +188,7 @@ class Scorer:
         self.floors = {}
         for n in names:
             y = self.replay.measured(n)
-            nf = noise_floor(y)
+            nf = self.replay.noise_floor(n)
             # a noiseless (simulated, unquantised) column still needs a finite weight
             self.floors[n] = max(nf, 1e-6 * float(np.sqrt(np.mean(y ** 2))) + 1e-12)
 

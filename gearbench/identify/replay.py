@@ -12,15 +12,24 @@ window's start the angle states are moved by the model's drift, measured minus
 simulated position over the previous window's last samples fitted by a straight
 line (so the reset does not carry one sample's noise), when that drift is
 significant; the speeds, current and mesh state run on from the previous window.
+
+The noise of each compared column is read from the record (``measure.noise.noise_floor``,
+from its third differences, which assumes the noise is white) unless it is stated
+(``noise_std``): coloured noise (a filtered sensor, a drifting amplifier) shows in the
+differences only in part (a quarter of it for an AR(1) process of lag-1 correlation 0.9),
+and the level of its slow part cannot be read from a record of a moving machine.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import math
+
 import numpy as np
 
 from .. import layout as L
 from ..measure.data import Measurement
+from ..measure.noise import noise_floor
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
@@ -72,13 +81,17 @@ class Replay:
     interval, s (None: one window); options: solver options (each window's step budget at most
     :data:`STEPS_PER_SAMPLE` per sample); start_moving: the
     record starts in motion (EMPS's do), so the model starts at the measured speed
-    (None: in closed loop, whose records are cut from a running machine).
+    (None: in closed loop, whose records are cut from a running machine); noise_std: the
+    measurement noise's standard deviation of some compared columns, each in its column's
+    unit, where it is known (a record of the machine at rest, a sensor's datasheet): it is
+    their noise floor (:meth:`noise_floor`) and the least drift a window's reset acts on.
     """
     data: Measurement
     controller: object | None = None
     window_s: float | None = 1.0
     options: SolverOptions = field(default_factory=lambda: SolverOptions(rtol=1e-6, max_step_s=1e-3))
     start_moving: bool | None = None
+    noise_std: dict | None = None
 
     def __post_init__(self):
         t = self.data.time_s
@@ -89,10 +102,37 @@ class Replay:
         if self.controller is not None and self.data.setpoint is None:
             raise ReplayError(f"{self.data.source}: a closed-loop replay needs a set point column "
                               "(setpoint_deg or setpoint_mm)")
+        self.noise_std = self._checked_noise(self.noise_std)
+
+    def _checked_noise(self, stated) -> dict[str, float]:
+        if stated is None:
+            return {}
+        if not isinstance(stated, dict):
+            raise ReplayError(f"noise_std must be a dict {{column: standard deviation}}, got {stated!r}")
+        compared, problems = self.compared(), []
+        for name, std in stated.items():
+            if name not in compared:
+                problems.append(f"noise_std (--noise): {name!r} is not a compared column of "
+                                f"{self.data.source or 'the record'} (it has {', '.join(compared)})")
+                continue
+            unit = self.data.signal_unit(name) if name in self.data.signals else self.data.input_unit
+            ok = isinstance(std, (int, float)) and not isinstance(std, bool) and math.isfinite(std) and std > 0
+            if not ok:
+                problems.append(f"noise_std[{name!r}] (--noise) must be a standard deviation > 0 in {unit}, got {std!r}")
+        if problems:
+            raise ReplayError("; ".join(problems))
+        return {name: float(std) for name, std in stated.items()}
 
     @property
     def closed_loop(self) -> bool:
         return self.controller is not None
+
+    def noise_floor(self, name: str) -> float:
+        """Standard deviation of the noise on compared column ``name``, in its unit: the stated one
+        (``noise_std``), else :func:`gearbench.measure.noise.noise_floor` of the record's column."""
+        if name in self.noise_std:
+            return self.noise_std[name]
+        return noise_floor(self.measured(name))
 
     def compared(self) -> list[str]:
         """The columns a replay predicts: the measured signals, and the input in closed loop."""
@@ -150,7 +190,12 @@ class Replay:
         ``RESET_SAMPLES`` samples of the previous window (``out_prev``, its sampled outputs),
         fitted by a straight line in time and evaluated at sample ``a``, with that value's
         standard error (``motion``: :meth:`_motion`'s); the states move only past 5 standard
-        errors, so a right model is left alone.  The difference of two trajectories is
+        errors, so a right model is left alone.  Where the motion signal's noise is stated
+        (``noise_std``), the standard error is at least that noise: its colour is not known, and
+        coloured noise moves the last samples together, so their line's end is as far off as one
+        sample (on the bench rig with AR(1) noise of lag-1 correlation 0.9, the straight line's own
+        error moved a right model at 4-8 of 15 windows, and its motor angle's error rose from 1.0x
+        to 1.3-1.7x the noise).  The difference of two trajectories is
         smooth where the model is right, whatever the motion: a polynomial fit of the
         measurement alone is biased where the motion is not polynomial (a motor crossing
         the clearance at 33 rad/s in practice case p03: it moved a right model 0.35 deg and
@@ -167,6 +212,8 @@ class Replay:
         r = d - np.polyval(coef, tt)
         drift = float(coef[-1])
         se = float(np.sqrt(cov[-1, -1] * (r @ r) / (m - 2)))
+        if name in self.noise_std:
+            se = max(se, float(abs(S.to_output_rad(name, self.noise_std[name], plant))))
         if abs(drift) > 5.0 * se:
             x[L.X_THM] += plant.gear.ratio * drift
             return True
