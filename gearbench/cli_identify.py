@@ -30,6 +30,11 @@ _common = [
                       "column; repeatable.  It is the column's noise floor and weight, and the least drift a "
                       "window's reset acts on.  Default: read from the record's third differences, which "
                       "assumes white noise."),
+    click.option("--noise-from", "noise_from", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+                 metavar="REST.csv",
+                 help="A record of the machine at rest (same columns as DATA): each compared column's noise is "
+                      "its standard deviation there (at least a count's q/sqrt(12)), white or coloured; "
+                      "--noise entries win."),
 ]
 
 
@@ -43,7 +48,7 @@ def common(f):
 
 
 
-def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=()):
+def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noise_from=None):
     """Plant, record and replay, every file and ``--noise`` checked before any solving."""
     from .experiment.controller_file import load_controller
     from .experiment.files import load_plant
@@ -54,11 +59,14 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=()):
     plant = load_plant(plant_file)
     data = read_measurement(data_file, context_column_map())
     controller = load_controller(controller_file) if controller_file else None
+    every = list(data.signals) + ([data.input_name] if controller else [])
     stated = parse_noise(noise, positive=True)
     if "*" in stated:
-        every = list(data.signals) + ([data.input_name] if controller else [])
         std = stated.pop("*")
         stated = {**{n: std for n in every}, **stated}
+    if noise_from is not None:
+        from .identify.replay import noise_at_rest
+        stated = {**noise_at_rest(read_measurement(noise_from, context_column_map()), every), **stated}
     replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3),
                     noise_std=stated or None)
     replay.check(plant)
@@ -94,7 +102,7 @@ def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Pat
 @click.option("--lags", type=click.IntRange(min=1), default=25, show_default=True,
               help="Residual tests: the largest lag, in samples, of the residual's autocorrelation (0..LAGS) "
                    "and of its cross-correlation with the input (-LAGS..LAGS).")
-def compare(plant_file, data_file, controller_file, window_s, rtol, noise, results, as_json, lags):
+def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, results, as_json, lags):
     """Drive the model as the record was driven and show where it fails.
 
     For each measured signal: RMS and maximum error in its unit, the noise
@@ -112,7 +120,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, resul
     from .report.compare import comparison_figure, residual_figure, residual_tests_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
-        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise)
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
         c = comparison(replay, plant, lags=lags)
     except _errors() as exc:
         _fail(exc)
@@ -218,8 +226,8 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, resul
                    "\"nothing pays\", \"max steps\" or \"time limit\".  'noise_floors': each signal's floor, "
                    "unit and whether it was stated (--noise); 'residual_tests': the final model's, per signal "
                    "(white, input_independent, lag1, ljung_box_p, sentence).")
-def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, free, only, calibrate, max_steps, time_limit_s,
-             workers, scheduler, quiet, results, as_json):
+def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, calibrate,
+             max_steps, time_limit_s, workers, scheduler, quiet, results, as_json):
     """Which physical effect is the model missing?
 
     Fits every effect of the library that the plant lacks, in every place it
@@ -242,7 +250,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, free
     from .report.compare import ladder_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
-        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise)
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
         names = tuple(n.strip() for n in only.split(",") if n.strip())
         with _ladder_progress(disable=quiet or as_json) as show:
             d = run_diagnosis(plant, replay, tuple(free), max_steps, workers, progress=show, only=names,
@@ -368,8 +376,8 @@ def _rows(d):
               help="Print {converged, effect, values, stderr, units, correlation (parameter -> parameter -> "
                    "correlation of the two estimates), error_before, error_after, error_signal, "
                    "output, tried} as one JSON object on stdout instead of the table.")
-def fit(plant_file, data_file, controller_file, window_s, rtol, noise, effect_spec, free, refit, calibrate, max_evals,
-        scheduler, output, as_json):
+def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, effect_spec, free, refit,
+        calibrate, max_evals, scheduler, output, as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors (and
@@ -386,7 +394,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, effect_sp
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic
     try:
-        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise)
+        plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
         item = parse_effect(effect_spec)
         name = item.pop("type")
         if name not in REGISTRY:

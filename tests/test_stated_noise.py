@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import json
+
 import numpy as np
+import pandas as pd
 import pytest
 from click.testing import CliRunner
 
@@ -19,9 +22,10 @@ from gearbench.experiment.files import ConfigError, load_plant
 from gearbench.identify.compare import comparison
 from gearbench.identify.diagnose import _not_driven, diagnose
 from gearbench.identify.fit import Scorer
-from gearbench.identify.replay import Replay, ReplayError
+from gearbench.identify.replay import Replay, ReplayError, noise_at_rest
 from gearbench.identify.residuals import residual_test
 from gearbench.identify.synth import excitation, synthesize
+from gearbench.measure.noise import rest_noise
 from gearbench.plant.effects import AddedEffect
 from gearbench.simulate import SolverOptions
 
@@ -41,6 +45,13 @@ def coloured(plant, seed, hidden=(), duration_s=8.0, options=None):
     return synthesize(plant, list(hidden), t, u, noise=NOISE, seed=seed, noise_ar1=0.9, options=options)
 
 
+def at_rest(plant, seed=5, duration_s=10.0):
+    """The rig standing still (no voltage) for ``duration_s``, the same AR(1) noise: what a user
+    records to measure the noise."""
+    t = np.arange(0.0, duration_s, 1e-3)
+    return synthesize(plant, [], t, np.zeros_like(t), noise=NOISE, seed=seed, noise_ar1=0.9)
+
+
 def rms_ratio(replay, plant, name):
     r = replay.residuals(replay.run(plant))[name]
     return float(np.sqrt(np.mean(r ** 2))) / NOISE[name]
@@ -55,6 +66,24 @@ def test_a_stated_noise_is_the_floor_and_the_weight(rig):
     rows = {r["signal"]: r for r in comparison(replay, rig, lags=None)["signals"]}
     assert rows["load_angle_deg"]["noise_floor"] == 0.05
     assert rows["load_angle_deg"]["ratio_to_noise"] == pytest.approx(rows["load_angle_deg"]["rms_error"] / 0.05)
+
+
+def test_the_noise_of_a_record_at_rest_is_its_spread(rig):
+    """10 s at rest with AR(1) noise (lag-1 correlation 0.9): each column's standard deviation there
+    is its noise within 5 %, where the third differences read a quarter of it."""
+    rest = at_rest(rig)
+    got = noise_at_rest(rest, ["motor_angle_deg", "load_angle_deg", "current_A", "speed"])
+    assert set(got) == set(NOISE)
+    for name, std in NOISE.items():
+        assert got[name] == pytest.approx(std, rel=0.05)
+        assert Replay(rest).noise_floor(name) < 0.35 * std
+    # an encoder at rest: at least a count's q/sqrt(12); one that never toggles cannot say
+    counts = 0.01 * np.r_[np.zeros(50), np.ones(40), 2 * np.ones(10)]
+    assert rest_noise(counts) >= 0.01 / np.sqrt(12)
+    with pytest.raises(ValueError, match="motor_angle_deg does not vary at all"):
+        rest_noise(np.full(100, 3.0), "motor_angle_deg")
+    with pytest.raises(ReplayError, match="none of the compared columns"):
+        noise_at_rest(rest, ["motor_position_mm"])
 
 
 def test_coloured_noise_no_longer_moves_a_right_model(rig):
@@ -110,9 +139,17 @@ def test_the_api_and_the_cli_take_the_noise(tmp_path):
     run = CliRunner().invoke(main, ["compare", str(RIG), str(HIDDEN), "--noise", "all=0.04", "--noise",
                                     "current_A=0.002", "--json", "--results", str(tmp_path)])
     assert run.exit_code == 0, run.output
-    import json
     floors = {r["signal"]: r["noise_floor"] for r in json.loads(run.stdout)["signals"]}
     assert floors == {"motor_angle_deg": 0.04, "load_angle_deg": 0.04, "current_A": 0.002}
+    rest = tmp_path / "rest.csv"
+    m = at_rest(load_plant(RIG))
+    pd.DataFrame({"time_s": m.time_s, "voltage_V": m.input, **m.signals}).to_csv(rest, index=False)
+    run = CliRunner().invoke(main, ["compare", str(RIG), str(HIDDEN), "--noise-from", str(rest), "--noise",
+                                    "current_A=0.002", "--json", "--results", str(tmp_path)])
+    assert run.exit_code == 0, run.output
+    floors = {r["signal"]: r["noise_floor"] for r in json.loads(run.stdout)["signals"]}
+    assert floors["current_A"] == 0.002          # --noise wins
+    assert floors["load_angle_deg"] == pytest.approx(NOISE["load_angle_deg"], rel=0.05)
     for bad, said in (("load_angle_deg=0", "standard deviation > 0"), ("load_angle_deg", "SIGNAL=STD"),
                       ("speed=1", "'speed' is not a compared column")):
         run = CliRunner().invoke(main, ["diagnose", str(RIG), str(HIDDEN), "--noise", bad, "--json"])
@@ -142,15 +179,15 @@ def test_a_residual_the_input_does_not_drive_is_not_called_missing_physics():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", ["nothing hidden", "coulomb friction"])
-def test_diagnose_with_coloured_noise_stated(rig, case):
+def test_diagnose_with_coloured_noise_measured_at_rest(rig, case):
     """16 s of the bench rig, made at rtol 1e-9, AR(1) noise (lag-1 correlation 0.9), the noise
-    stated.  Measured 2026-11-26 (2 cores): nothing hidden, verdict null at the noise floor
-    (0.997x, 33 s); Coulomb friction hidden, found at 0.5000 N m and the ladder at the noise floor
-    (26 s).  Read from the record instead, the floors are a quarter of the noise: nothing hidden
-    ended 'nothing pays' at 3.58x, and with the friction hidden it took 132 s to end at 3.59x."""
+    stated as a user would measure it: its spread in 10 s of the rig at rest.  Measured
+    2026-11-26 (2 cores): nothing hidden, verdict null at the noise floor (0.996x, 33 s); Coulomb
+    friction hidden, found at 0.5000 N m and the ladder at the noise floor (26 s).  Read from the record instead, the floors are a quarter of the noise: nothing
+    hidden ended 'nothing pays' at 3.58x, and with the friction hidden it took 132 s to end at 3.59x."""
     hidden = [AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})] if case != "nothing hidden" else []
     m = coloured(rig, 11, hidden, duration_s=16.0, options=SolverOptions(rtol=1e-9, max_step_s=1e-3))
-    d = diagnose(rig, Replay(m, noise_std=NOISE))
+    d = diagnose(rig, Replay(m, noise_std=noise_at_rest(at_rest(rig), list(NOISE))))
     j = d.to_json()
     assert d.stopped == "noise floor", (d.reason, j["ladder"])
     assert all(v["stated"] for v in j["noise_floors"].values())

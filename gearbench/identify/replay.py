@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import layout as L
 from ..measure.data import Measurement
-from ..measure.noise import noise_floor
+from ..measure.noise import noise_floor, rest_noise
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
@@ -55,6 +55,21 @@ class ReplayError(RuntimeError):
 
 class ReplayRunError(ReplayError, SolverError):
     """The solver could not finish the replay (the files were fine; the CLI exits 1, not 2)."""
+
+
+def noise_at_rest(rest: Measurement, columns) -> dict[str, float]:
+    """``noise_std`` from a record of the machine at rest: each of ``columns`` it has,
+    :func:`gearbench.measure.noise.rest_noise` (its standard deviation there, in its unit).
+    ``ReplayError`` when it has none of them or one does not vary."""
+    names = [n for n in columns if n in rest.signals or n == rest.input_name]
+    if not names:
+        raise ReplayError(f"{rest.source or 'the record at rest'} has none of the compared columns "
+                          f"({', '.join(columns)})")
+    try:
+        return {n: rest_noise(rest.signals[n] if n in rest.signals else rest.input, f"{n} of {rest.source}")
+                for n in names}
+    except ValueError as exc:
+        raise ReplayError(str(exc)) from None
 
 
 def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int = 2):

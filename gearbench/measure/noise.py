@@ -86,4 +86,26 @@ def noise_floor(y, quantum: float | None = None) -> float:
     return max(sigma, (q or 0.0) / math.sqrt(12.0))
 
 
-__all__ = ["noise_floor", "detect_quantum", "difference_noise"]
+def rest_noise(y, name: str = "signal") -> float:
+    """Standard deviation of the noise on ``y``, a record of the machine at rest (unit of ``y``).
+
+    At rest the signal is a constant, so every deviation from the record's mean is noise, white
+    or coloured: ``max(std(y), q/√12)`` with ``q`` the grid step :func:`detect_quantum` finds
+    (an encoder at rest may not toggle at all).  What :func:`noise_floor` cannot give for
+    coloured noise, whose slow part hides in a moving machine's motion; the record should be
+    many times longer than the noise's correlation time.  ``ValueError`` (naming ``name``) for
+    fewer than ``8`` finite samples, or a signal that does not vary at all (its noise is below
+    one step of its resolution: state it).
+    """
+    y = _finite(y)
+    if y.size < _MIN_SAMPLES:
+        raise ValueError(f"{name}: the noise at rest needs at least {_MIN_SAMPLES} finite samples, got {y.size}")
+    q = detect_quantum(y)
+    sigma = max(float(np.std(y)), (q or 0.0) / math.sqrt(12.0))
+    if sigma <= 0:
+        raise ValueError(f"{name} does not vary at all in the record at rest: its noise is below its "
+                         "resolution; state it (--noise SIGNAL=STD)")
+    return sigma
+
+
+__all__ = ["noise_floor", "detect_quantum", "difference_noise", "rest_noise"]
