@@ -24,7 +24,7 @@ def comparison(replay: Replay, plant, sim: dict | None = None, lags: int | None 
     for name, r in res.items():
         y = replay.measured(name)
         nf = replay.noise_floor(name)
-        unit = replay.data.signal_unit(name) if name in replay.data.signals else replay.data.input_unit
+        unit = replay.unit(name)
         rms = float(np.sqrt(np.mean(r ** 2)))
         rows.append({"signal": name, "unit": unit, "rms_error": rms, "max_error": float(np.max(np.abs(r))),
                      "noise_floor": nf, "ratio_to_noise": rms / nf if nf > 0 else float("inf"),

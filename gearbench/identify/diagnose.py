@@ -487,9 +487,7 @@ NOT_IN_LIBRARY = "; the missing physics is not in the library"
 
 def _noise(replay: Replay, scorer: Scorer) -> dict:
     """Per weighed column: its noise floor, unit and whether it was stated."""
-    def unit(n):
-        return replay.data.signal_unit(n) if n in replay.data.signals else replay.data.input_unit
-    return {n: {"floor": f, "unit": unit(n), "stated": n in replay.noise_std} for n, f in scorer.floors.items()}
+    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std} for n, f in scorer.floors.items()}
 
 
 def _residual_tests(replay: Replay, plant: Plant, res: FitResult) -> dict:
@@ -731,8 +729,7 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
     base = fit(replay, plant, frees, scorer) if frees else evaluate(replay, scorer, plant)
     if not base.converged:
         raise ReplayError(f"the baseline fit of {', '.join(free_plant)} did not converge: {base.message}")
-    unit = replay.data.signal_unit(scorer.primary) if scorer.primary in replay.data.signals else \
-        replay.data.input_unit
+    unit = replay.unit(scorer.primary)
     if calibrate:
         track.stage("calibration plan")
     cal = calibration.plan(plant, replay, scorer) if calibrate else calibration.Plan()

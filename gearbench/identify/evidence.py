@@ -237,7 +237,7 @@ def explain(replay, scorer, before, best, tried=()) -> str:
     (against the same effect's other places among ``tried``), the phase the error sits in, and
     what adding the effect gains."""
     name = scorer.primary
-    unit = replay.data.signal_unit(name) if name in replay.data.signals else replay.data.input_unit
+    unit = replay.unit(name)
     ev = Evidence(replay, before.plant, before.sim)
     r0 = ev.residuals[name]
     r1 = replay.residuals(best.result.sim)[name]
