@@ -910,7 +910,7 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
     cluster at this address, one task each (``identify.executor``; in this process
     without it).  Shared by :func:`fit` and ``gearbench fit``."""
     from .identify import calibration
-    from .identify.diagnose import Candidate, _run_candidate, _start_values, candidates
+    from .identify.diagnose import CALIBRATION_RESTARTS, Candidate, _run_candidate, _start_values, candidates
     from .identify.executor import Executor
     from .identify.fit import Free, Scorer
     from .plant.effects import REGISTRY
@@ -938,7 +938,8 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
         cal = calibration.plan(plant, replay, scorer).frees if calibrate else []
         return where.map(_run_candidate, [
             (replay, scorer, plant, Candidate(name, c.options), tuple(free) + tuple(cal), again,
-             None if not start else {**c.options, **_start_values(plant, c), **start}, max_evals)
+             None if not start else {**c.options, **_start_values(plant, c), **start}, max_evals,
+             CALIBRATION_RESTARTS if cal else 0)  # as diagnose's calibration: tied datasheet values stall
             for c in places])
 
 
@@ -1050,7 +1051,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         Most simulations the least-squares fit may spend (default 40 per parameter + 40).
     calibrate : bool
         Fit the plant's own datasheet values within their tolerances too (as
-        :func:`diagnose` does); they are among ``values`` and ``stderr``.  Off by
+        :func:`diagnose` does, restarted on a stall as its calibration is); they are
+        among ``values`` and ``stderr``.  Off by
         default: fitted beside one effect while another is still missing, they take up
         part of the missing one (the tutorial's spring fitted alone with them: 1.94 for
         2.00 N m/rad, and the friction fitted next did not bring it back).

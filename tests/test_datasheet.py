@@ -102,3 +102,44 @@ def test_datasheet_values_off_and_an_effect_missing():
     assert final["coulomb_friction"]["torque"] == pytest.approx(0.5, rel=0.02)
     assert d.ladder[-1].error <= 1.2 * d.noise_floor
     assert calibration_misses(d, truth, OFF["p04-like"]) == ([], [])
+
+
+def test_fit_calibrate_brings_back_the_effect_and_the_datasheet_values():
+    """``gearbench fit --calibrate`` (``gearbench.fit(..., calibrate=True)``): Coulomb friction at
+    the load fitted beside the datasheet values of p04's errors, on the same 16 s record as above:
+    the friction within 2 %, each value the file had off back within 2 % and 3 standard errors,
+    the load angle's error at its noise (0.0149 deg for 0.015; 34 s on 2 cores, 2026-11-27)."""
+    import gearbench as gb
+    truth = load_plant(RIG)
+    hidden = AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})
+    f = gb.fit(datasheet(truth, OFF["p04-like"]), record(truth, [hidden]), "coulomb_friction",
+               options={"location": "load"}, calibrate=True)
+    assert f.values["effects[0].torque"] == pytest.approx(0.5, rel=0.02), f.values
+    for path in ("motor.resistance", "motor.torque_constant", "load.inertia"):
+        section, key = path.split(".")
+        true = getattr(getattr(truth, section), key)
+        assert f.values[path] == pytest.approx(true, rel=0.02), (path, f.values)
+        assert abs(f.values[path] - true) <= 3 * f.stderr[path], (path, f.values[path], f.stderr[path])
+    assert f.plant.motor.back_emf_constant == pytest.approx(truth.motor.back_emf_constant, rel=0.02)
+    assert f.error_after <= 1.2 * NOISE["load_angle_deg"], f.error_after
+    line = next(ln for ln in f.to_yaml().splitlines() if ln.strip().startswith("resistance:"))
+    assert "fitted, standard error" in line and "ohm" in line, line  # the plant fit -o writes
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known limit: on an 8 s record the calibration stops in a false minimum")
+def test_datasheet_values_off_and_an_effect_missing_on_8_s():
+    """The test above on 8 s of the same excitation.  The stick-slip at the load makes the
+    calibration's residual jump between branches (on the first second of this record, with the
+    load inertia held and the rest refitted: 11.0x the noise floors at 0.0054 kg m^2, 3.2x at
+    0.0056, 0.98x at the truth's 0.006), and from p04's values the fit takes the wrong branch:
+    the ladder ends at 143x the noise floor, load inertia 0.00539 for 0.006 (151 s on 2 cores,
+    2026-11-27).  16 s records (seeds 11, 12, 13) pass."""
+    truth = load_plant(RIG)
+    hidden = AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})
+    t, u = excitation("mixed", truth, duration_s=8.0, seed=11)
+    noise = {s: NOISE[s] for s in default_signals(truth)}
+    m = synthesize(truth, [hidden], t, u, noise=noise, seed=11, options=TIGHT)
+    d = diagnose(datasheet(truth, OFF["p04-like"]), Replay(m), max_steps=3)
+    assert d.verdict == "coulomb_friction" and d.ladder[-1].error <= 1.2 * d.noise_floor
+    assert calibration_misses(d, truth, OFF["p04-like"]) == ([], [])

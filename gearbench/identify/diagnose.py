@@ -158,9 +158,10 @@ def _start_values(plant: Plant, cand: Candidate) -> dict:
 @single_threaded
 def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
                   free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = (),
-                  start: dict | None = None, max_nfev: int | None = None) -> Tried:
+                  start: dict | None = None, max_nfev: int | None = None, restarts: int = 0) -> Tried:
     """Fit one candidate (its parameters, the free plant parameters and those
     of the plant's effects numbered in ``refit``, jointly) to the record.
+    ``restarts``: as in :func:`gearbench.identify.fit.fit`.
 
     Parameters the data give directly (``Effect.estimate``: encoder counts) are
     read, the rest fitted: a space-filling scan of the candidate's own
@@ -183,12 +184,12 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
                 return Tried(cand, None, note="nothing to fit and nothing read from the data")
             res = evaluate(replay, scorer, with_it, k=len(est))
         elif start is not None:
-            res = fit(replay, with_it, frees, scorer, max_nfev=max_nfev)
+            res = fit(replay, with_it, frees, scorer, max_nfev=max_nfev, restarts=restarts)
         else:
             points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
                                       [get_value(with_it, f) for f in frees])
-            res = _best_fit([fit(replay, with_it, frees, scorer, start=list(x), max_nfev=max_nfev)
-                             for x in points])
+            res = _best_fit([fit(replay, with_it, frees, scorer, start=list(x), max_nfev=max_nfev,
+                                 restarts=restarts) for x in points])
             res.k += len(est or {})
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
