@@ -50,10 +50,28 @@ SEED = 3
 
 
 def gearbench(python: str, pythonpath: str | None) -> tuple[list[str], dict]:
+    """The command that runs gearbench and its environment.  Run it from a folder without a
+    ``gearbench`` package (``NEUTRAL``): ``python -c`` puts its working folder first on the path,
+    which with this checkout as the folder ran this checkout's gearbench whatever ``--pythonpath``
+    said (so the 2026-11-26 "before" figures were this code's too)."""
     env = dict(os.environ)
     if pythonpath:
         env["PYTHONPATH"] = str(Path(pythonpath).resolve())
     return [python, "-c", "from gearbench.cli import main; main()"], env
+
+
+NEUTRAL = Path(tempfile.gettempdir())
+
+
+def imported_from(python: str, pythonpath: str | None) -> Path:
+    """The folder of the gearbench package the commands import; with ``pythonpath``, it must be
+    that checkout's."""
+    env = gearbench(python, pythonpath)[1]
+    found = Path(subprocess.run([python, "-c", "import gearbench; print(gearbench.__file__)"], env=env,
+                                capture_output=True, text=True, check=True, cwd=NEUTRAL).stdout.strip()).parent
+    if pythonpath and Path(pythonpath).resolve() not in found.parents:
+        raise click.ClickException(f"--pythonpath {pythonpath}: the commands import gearbench from {found}")
+    return found
 
 
 def make_record(name: str, folder: Path) -> Path:
@@ -64,7 +82,7 @@ def make_record(name: str, folder: Path) -> Path:
                   "--seed", str(SEED), "-o", str(out)]
     for e in hidden:
         args += ["--effect", e]
-    subprocess.run(args, check=True, env=env, capture_output=True, cwd=REPO)
+    subprocess.run(args, check=True, env=env, capture_output=True, cwd=NEUTRAL)
     return out
 
 
@@ -74,7 +92,7 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
     args = cmd + ["diagnose", str(PLANTS / plant), str(data), "--json", "--results", str(out)]
     t0 = time.perf_counter()
     try:
-        p = subprocess.run(args, env=env, capture_output=True, text=True, timeout=timeout, cwd=REPO)
+        p = subprocess.run(args, env=env, capture_output=True, text=True, timeout=timeout, cwd=NEUTRAL)
     except subprocess.TimeoutExpired:
         return {"wall_s": None, "status": f"stopped after {timeout:g} s", "hidden": hidden}
     wall = time.perf_counter() - t0
@@ -100,6 +118,7 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
 def main(python, pythonpath, label, names, timeout):
     from bench_store import merge
     names = names or tuple(RECORDS)
+    source = imported_from(python, pythonpath)
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -115,7 +134,7 @@ def main(python, pythonpath, label, names, timeout):
                             text=True).stdout.strip() or None
     merge({f"ladder_{label}" if label else "ladder": {
         "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),
-        "commit": commit, "other_checkout": bool(pythonpath), "records": rows}})
+        "commit": commit, "other_checkout": bool(pythonpath), "gearbench_from": str(source), "records": rows}})
 
 
 if __name__ == "__main__":

@@ -155,7 +155,7 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
     replay = Replay(_record(plant, seconds=0.5))
     free = [Free.plant(plant, "motor.resistance")]
 
-    def run(script, restarts):
+    def run(script, restarts, below=None):
         calls = []
 
         def scripted(fun, z0, **kw):
@@ -164,7 +164,7 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
             return SimpleNamespace(x=np.array([z]), cost=0.0, status=status, nfev=5, jac=np.ones((1, 1)),
                                    message=f"end {len(calls)}")
         monkeypatch.setattr(fit_module, "least_squares", scripted)
-        return fit(replay, plant, free, restarts=restarts), calls
+        return fit(replay, plant, free, restarts=restarts, rounds_below=below), calls
 
     def value(r):
         return r.values["motor.resistance"] / plant.motor.resistance
@@ -182,6 +182,14 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
     assert len(calls) == 2 and value(r) == pytest.approx(1.2)
     r, calls = run([(xtol, 1.3), (xtol, 1.2)], restarts=0)  # no restart on a stall, resets unchanged
     assert len(calls) == 1 and r.message == "end 1"
+    # rounds_below: a fit no better than that after a round gets no more (diagnose's screen: the
+    # model without the candidate)
+    without = evaluate(replay, Scorer(replay), replace(plant, motor=replace(plant.motor,
+                                                                             resistance=1.25 * plant.motor.resistance)))
+    r, calls = run([(xtol, 1.3), (xtol, 1.2)], restarts=3, below=without.rss)
+    assert len(calls) == 1 and value(r) == pytest.approx(1.3)
+    r, calls = run([(xtol, 1.2), (gtol, 1.1)], restarts=3, below=without.rss)
+    assert len(calls) == 2 and value(r) == pytest.approx(1.1)
 
 
 def test_a_fit_holds_the_replays_resets_while_it_moves():

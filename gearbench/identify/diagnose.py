@@ -158,10 +158,11 @@ def _start_values(plant: Plant, cand: Candidate) -> dict:
 @single_threaded
 def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
                   free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = (),
-                  start: dict | None = None, max_nfev: int | None = None, restarts: int = 0) -> Tried:
+                  start: dict | None = None, max_nfev: int | None = None, restarts: int = 0,
+                  rounds_below: float | None = None) -> Tried:
     """Fit one candidate (its parameters, the free plant parameters and those
     of the plant's effects numbered in ``refit``, jointly) to the record.
-    ``restarts``: as in :func:`gearbench.identify.fit.fit`.
+    ``restarts``, ``rounds_below``: as in :func:`gearbench.identify.fit.fit`.
 
     Parameters the data give directly (``Effect.estimate``: encoder counts) are
     read, the rest fitted: a space-filling scan of the candidate's own
@@ -184,12 +185,13 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
                 return Tried(cand, None, note="nothing to fit and nothing read from the data")
             res = evaluate(replay, scorer, with_it, k=len(est))
         elif start is not None:
-            res = fit(replay, with_it, frees, scorer, max_nfev=max_nfev, restarts=restarts)
+            res = fit(replay, with_it, frees, scorer, max_nfev=max_nfev, restarts=restarts,
+                      rounds_below=rounds_below)
         else:
             points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
                                       [get_value(with_it, f) for f in frees])
             res = _best_fit([fit(replay, with_it, frees, scorer, start=list(x), max_nfev=max_nfev,
-                                 restarts=restarts) for x in points])
+                                 restarts=restarts, rounds_below=rounds_below) for x in points])
             res.k += len(est or {})
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
@@ -546,12 +548,12 @@ def _rank(tried: list[Tried]) -> list[Tried]:
     return out
 
 
-def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress):
+def _fit_all(replay, scorer, plant, cands, free_plant, refit, workers, progress, rounds_below=None):
     """Fit candidates in parallel (where the :class:`Executor` ``workers`` runs them); an item of
-    ``cands`` may be ``(candidate, start values)``."""
+    ``cands`` may be ``(candidate, start values)``.  ``rounds_below``: see :func:`try_candidate`."""
     jobs = [(replay, scorer, plant, *(c if isinstance(c, tuple) else (c, None)), free_plant, refit)
             for c in cands]
-    jobs = [(r, s, p, c, fp, rf, st) for r, s, p, c, st, fp, rf in jobs]
+    jobs = [(r, s, p, c, fp, rf, st, None, 0, rounds_below) for r, s, p, c, st, fp, rf in jobs]
     return _map(_run_candidate, jobs, workers, progress)
 
 
@@ -791,7 +793,7 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
             # screened with the calibrated values held (cheap); the best few refitted with them below
             cands = candidates(current, replay, only)
             tried = _rank(_fit_all(replay, scorer, current, cands, free_plant, (), workers,
-                                   track.stage("candidates", len(cands))))
+                                   track.stage("candidates", len(cands)), current_res.rss))
             if added:
                 top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
                 joint = _fit_all(replay, scorer, current, top, refitted, added, workers,
