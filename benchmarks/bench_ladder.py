@@ -134,7 +134,9 @@ def main(python, pythonpath, label, names, timeout):
                             text=True).stdout.strip() or None
     merge({f"ladder_{label}" if label else "ladder": {
         "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),
-        "commit": commit, "other_checkout": bool(pythonpath), "gearbench_from": str(source), "records": rows}})
+        "commit": commit, "other_checkout": bool(pythonpath),
+        "gearbench_from": "this checkout" if source.parent == REPO else "the --pythonpath checkout",
+        "records": rows}})
 
 
 if __name__ == "__main__":
