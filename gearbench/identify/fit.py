@@ -291,7 +291,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     without the candidate: a candidate that has gained nothing in its first round is not worth
     more (on issue 18's 4 s record a shaft compliance went nearly rigid, 1.8e6 N m/rad on a pinion
     of 1 % of the rotor, 1e-5 below the model without it, where a replay took 2.6 s; its second
-    round took that rung's screen from 22 to 146 s).
+    round took that rung's screen, in one process, from 22 to 164 s).
 
     ``restarts``: after a stop on the step tolerance (``xtol``), also start another round, up to
     this many, while a round lowers the RSS by more than :data:`RESTART_GAIN` (a fresh trust
