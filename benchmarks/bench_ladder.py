@@ -63,15 +63,14 @@ def gearbench(python: str, pythonpath: str | None) -> tuple[list[str], dict]:
 NEUTRAL = Path(tempfile.gettempdir())
 
 
-def imported_from(python: str, pythonpath: str | None) -> Path:
-    """The folder of the gearbench package the commands import; with ``pythonpath``, it must be
-    that checkout's."""
+def check_imported(python: str, pythonpath: str | None) -> None:
+    """The commands must import the gearbench being measured: ``pythonpath``'s, else this checkout's."""
     env = gearbench(python, pythonpath)[1]
     found = Path(subprocess.run([python, "-c", "import gearbench; print(gearbench.__file__)"], env=env,
                                 capture_output=True, text=True, check=True, cwd=NEUTRAL).stdout.strip()).parent
-    if pythonpath and Path(pythonpath).resolve() not in found.parents:
-        raise click.ClickException(f"--pythonpath {pythonpath}: the commands import gearbench from {found}")
-    return found
+    wanted = Path(pythonpath).resolve() if pythonpath else REPO
+    if found.parent != wanted:
+        raise click.ClickException(f"the commands import gearbench from {found}, not from {wanted}")
 
 
 def make_record(name: str, folder: Path) -> Path:
@@ -118,7 +117,7 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
 def main(python, pythonpath, label, names, timeout):
     from bench_store import merge
     names = names or tuple(RECORDS)
-    source = imported_from(python, pythonpath)
+    check_imported(python, pythonpath)
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -134,9 +133,7 @@ def main(python, pythonpath, label, names, timeout):
                             text=True).stdout.strip() or None
     merge({f"ladder_{label}" if label else "ladder": {
         "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),
-        "commit": commit, "other_checkout": bool(pythonpath),
-        "gearbench_from": "this checkout" if source.parent == REPO else "the --pythonpath checkout",
-        "records": rows}})
+        "commit": commit, "other_checkout": bool(pythonpath), "records": rows}})
 
 
 if __name__ == "__main__":
