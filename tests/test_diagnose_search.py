@@ -201,3 +201,51 @@ def test_a_backlash_hidden_in_a_plant_written_without_one_is_found():
     bl = d.ladder[0]
     assert bl.params["backlash_deg"] == pytest.approx(3.0, rel=0.15)
     assert d.ladder[-1].error <= 1.2 * d.noise_floor
+
+
+def test_the_fit_bound_on_a_shaft_stiffness_is_where_the_shaft_turns_rigid_to_the_record():
+    """A fit tries shaft modes (on the motor's whole inertia) up to ``RESOLVED`` x the sampling rate:
+    there a shaft differs from the rigid model by well under the noise floor of every column,
+    a hundred times softer (a mode at twice the sampling rate) by several floors.  A file may hold
+    any stiffness up to the effect's physical bound."""
+    from gearbench.plant.effects.shaft_compliance import RESOLVED
+    rig = _rig()
+    replay = Replay(record(rig, [], duration=2.0))
+    dt = replay.data.sample_time_s
+    jm = rig.motor_inertia_total
+    bound = jm * (2 * math.pi * RESOLVED / dt) ** 2
+    shaft = {"stiffness": 300.0, "damping": 1e-3, "pinion_inertia": 0.3 * jm}
+    with_it = rig.with_effects(AddedEffect("shaft_compliance", shaft))
+    stiffness = {f.key: f for f in Free.effect(with_it, 0, dt)}["stiffness"]
+    assert stiffness.high == pytest.approx(bound)
+    assert {f.key: f for f in Free.effect(with_it, 0)}["stiffness"].high == REGISTRY["shaft_compliance"].params[0].high
+    scorer = Scorer(replay)
+    rigid = replay.run(rig)
+
+    def apart(k):  # RMS difference from the rigid model, in noise floors, per column
+        d = 2 * 0.05 * math.sqrt(k * 0.3 * jm)  # damping ratio 0.05 on the pinion
+        sim = replay.run(rig.with_effects(AddedEffect("shaft_compliance", {**shaft, "stiffness": k, "damping": d})))
+        return {n: float(np.sqrt(np.mean((sim[n] - rigid[n]) ** 2))) / scorer.floors[n] for n in scorer.floors}
+
+    assert max(apart(bound).values()) < 0.3
+    assert apart(bound / 100)["motor_angle_deg"] > 3.0
+
+
+def test_a_pair_that_gains_nothing_over_its_better_member_gets_no_second_round(monkeypatch):
+    """``try_pair`` gives its fits ``rounds_below`` = the lower RSS of its two members alone: a pair
+    must beat that to pay (``_better_pair``), so a first round that has not is the last."""
+    from types import SimpleNamespace
+    rig = _rig()
+    replay = Replay(record(rig, [], duration=1.0))
+    seen = []
+
+    def fake_fit(replay, plant, frees, scorer, start=None, **kw):
+        seen.append(kw.get("rounds_below"))
+        return SimpleNamespace(rss=1.0, converged=True)
+
+    monkeypatch.setattr(diagnose_module, "fit", fake_fit)
+    monkeypatch.setattr(diagnose_module.search, "starts", lambda *a, **k: ([np.array(a[-1])] * 2, 1))
+    one = Tried(Candidate("viscous_friction", {"location": "load"}), SimpleNamespace(rss=7.0), {"coefficient": 1e-3})
+    two = Tried(Candidate("load_spring", {}), SimpleNamespace(rss=5.0), {"stiffness": 1.0, "rest_angle_deg": 0.0})
+    pair = diagnose_module.try_pair(replay, Scorer(replay), rig, one, two)
+    assert pair.result.rss == 1.0 and seen == [5.0, 5.0]

@@ -172,14 +172,15 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     """
     eff = REGISTRY[cand.name]
     values = dict(start) if start is not None else _start_values(plant, cand)
+    dt = replay.data.sample_time_s
     try:
         est = eff.estimate(values, replay.data.signals, plant)
         values.update(est or {})
         with_it = plant.with_effects(AddedEffect(cand.name, values))
-        mine = Free.effect(with_it, len(with_it.effects) - 1)
+        mine = Free.effect(with_it, len(with_it.effects) - 1, dt)
         frees = mine + plant_frees(with_it, free_plant)
         for i in refit:
-            frees += Free.effect(with_it, i)
+            frees += Free.effect(with_it, i, dt)
         if not frees:
             if est is None:
                 return Tried(cand, None, note="nothing to fit and nothing read from the data")
@@ -269,17 +270,21 @@ def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
     ``refit``); ``k`` counts both.  The local fit starts from the best of their single fits and
     a space-filling scan of both effects' parameters (``search``): a single fit of one member
     of a confounded pair is far from its value in the pair (Coulomb friction fitted alone on a
-    record with a spring: 3.5 N m for 0.6)."""
+    record with a spring: 3.5 N m for 0.6).  A fit that gained nothing in its first round over
+    the better of the two alone gets no second (``fit(rounds_below=)``: a pair that does not
+    beat it does not pay)."""
     n = len(plant.effects)
     both = plant.with_effects(*(AddedEffect(t.candidate.name, {**t.candidate.options, **t.params})
                                 for t in (first, second)))
-    mine = Free.effect(both, n) + Free.effect(both, n + 1)
+    dt = replay.data.sample_time_s
+    mine = Free.effect(both, n, dt) + Free.effect(both, n + 1, dt)
     frees = mine + plant_frees(both, free_plant)
     for i in refit:
-        frees += Free.effect(both, i)
+        frees += Free.effect(both, i, dt)
     try:
         points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees])
-        res = _best_fit([fit(replay, both, frees, scorer, start=list(x)) for x in points])
+        alone = min(t.result.rss for t in (first, second))
+        res = _best_fit([fit(replay, both, frees, scorer, start=list(x), rounds_below=alone) for x in points])
     except (ReplayError, ValueError) as exc:
         return Pair(first, second, None, f"could not be simulated: {exc}")
     return Pair(first, second, res, "" if res.converged else res.message)
@@ -638,7 +643,7 @@ def _refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = Fa
     None when it cannot be simulated or does not converge.  ``central``, ``restarts``: see :func:`fit`."""
     frees = plant_frees(plant, free_plant)
     for j in effects:
-        frees += Free.effect(plant, j)
+        frees += Free.effect(plant, j, replay.data.sample_time_s)
     try:
         r = (fit(replay, plant, frees, scorer, central=central, restarts=restarts) if frees
              else evaluate(replay, scorer, plant))

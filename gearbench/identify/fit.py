@@ -79,8 +79,9 @@ class Free:
         return Free(path, None, low, math.inf, abs(v) if v else 1.0, unit)
 
     @staticmethod
-    def effect(plant: Plant, i: int) -> list["Free"]:
-        """The fit parameters of effect ``i`` (file keys: ``force`` at the carriage)."""
+    def effect(plant: Plant, i: int, sample_time_s: float | None = None) -> list["Free"]:
+        """The fit parameters of effect ``i`` (file keys: ``force`` at the carriage), bounded for
+        a record sampled every ``sample_time_s`` s where the effect says so (``Param.fit_high``)."""
         from ..plant.effects.location import key as file_key
         e = plant.effects[i]
         out = []
@@ -92,7 +93,7 @@ class Free:
             floor = EXCESS.get((e.name, q.name))
             above = None if floor is None else (
                 file_key(e.values, floor) if "location" in e.effect.options else floor)
-            out.append(Free(k, i, 0.0 if above else q.low, q.high, scale,
+            out.append(Free(k, i, 0.0 if above else q.low, q.fit_bound(plant, e.values, sample_time_s), scale,
                             file_unit(q.unit, e.values.get("location") == "carriage"), above))
         return out
 

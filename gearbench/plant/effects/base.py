@@ -73,7 +73,10 @@ class Param:
 
     unit: its unit; low/high: physical bounds (also the fit's bounds);
     scale: a typical magnitude on the plant it acts on (a callable of the plant,
-    or a number), the fit's starting point and step; integer: whole numbers only.
+    or a number), the fit's starting point and step; integer: whole numbers only;
+    fit_high: where a record cannot tell larger values from the limit the parameter
+    tends to, ``fit_high(plant, values, sample_time_s)`` bounds a fit to a record
+    sampled every ``sample_time_s`` s (a file may still hold more, up to ``high``).
     """
     name: str
     unit: str
@@ -85,6 +88,14 @@ class Param:
     optional: bool = False
     start: float | None = None  # where a fit starts (default: the typical value)
     carriage: str | None = None  # its name with ``location: carriage`` (a force, N), if it differs
+    fit_high: Any = None
+
+    def fit_bound(self, plant, values: dict, sample_time_s: float | None) -> float:
+        """The fit's upper bound on ``plant`` for a record sampled every ``sample_time_s`` s
+        (None: ``high``)."""
+        if self.fit_high is None or sample_time_s is None:
+            return self.high
+        return min(self.high, float(self.fit_high(plant, values, sample_time_s)))
 
     def typical(self, plant, values: dict) -> float:
         """A typical value on ``plant`` (the effect's options in ``values``)."""

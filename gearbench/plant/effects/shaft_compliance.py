@@ -21,6 +21,22 @@ def _stiffness_scale(plant, values):
     return plant.motor_inertia_total * (2 * math.pi * 600.0) ** 2
 
 
+RESOLVED = 20.0
+"""The stiffest shaft a fit tries: its mode on the motor's whole inertia at this many times the
+record's sampling rate.  A file may hold any stiffness up to the parameter's ``high``."""
+
+
+def _stiffness_bound(plant, values, sample_time_s):
+    # Stiffer, the shaft is nearly rigid to the record: on the bench rig at 1 kHz (bound 3.2e5
+    # N m/rad) it moves the motor angle of issue 18's 4 s record by 0.13-0.32 noise floors RMS
+    # from the rigid model's (pinion 30 % or 1 % of the rotor), a hundred times softer by 4.5
+    # floors on a 2 s step record (tests/test_diagnose_search.py); the difference falls as 1/k.
+    # Unbounded, a screen fit walked towards rigid (stiffness and damping up together, the
+    # pinion to 1 % of the rotor) to 1.8e6 N m/rad, where the rotor's stick-slip friction
+    # chattered against the shaft and one replay of that record took 3.4 s (0.03 s at 5e5).
+    return plant.motor_inertia_total * (2 * math.pi * RESOLVED / sample_time_s) ** 2
+
+
 def _damping_scale(plant, values):
     # damping ratio ~0.05 on the rotor
     return 0.1 * math.sqrt(_stiffness_scale(plant, values) * plant.motor_inertia_total)
@@ -37,7 +53,8 @@ class ShaftCompliance(Effect):
     signature = "acceleration"
     acts_on = "plant structure"
     params = (
-        Param("stiffness", "N m/rad", 1e-12, 1e15, _stiffness_scale, "torsional stiffness"),
+        Param("stiffness", "N m/rad", 1e-12, 1e15, _stiffness_scale, "torsional stiffness",
+              fit_high=_stiffness_bound),
         Param("damping", "N m s/rad", 0.0, 1e12, _damping_scale, "torsional damping"),
         Param("pinion_inertia", "kg m^2", 0.0, 1e6, _pinion_scale,
               "inertia beyond the spring, taken out of the motor's"),
