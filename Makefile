@@ -8,7 +8,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test test-all bench emps-library clean-cache install install-test
+.PHONY: run test test-all bench clean-cache install install-test
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,7 +38,7 @@ run: install
 	$(BIN)/gearbench compare experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/gearbench diagnose experiments/plants/bench_rig.yaml experiments/data/bench_rig_hidden.csv
 	$(BIN)/python -m studies.hidden_effects --results results
-	$(BIN)/python -m studies.emps --results results --no-library
+	$(BIN)/python -m studies.emps --results results
 	$(BIN)/python -m studies.coverage --results results
 
 test: install-test
@@ -53,10 +53,6 @@ bench: install
 	$(BIN)/python benchmarks/bench_diagnose.py
 	$(BIN)/python benchmarks/bench_dask_diagnose.py
 	$(BIN)/python benchmarks/bench_ladder.py
-
-# the EMPS study with the ladder over the whole effect library too (about 70 min on 2 cores)
-emps-library: install
-	$(BIN)/python -m studies.emps --results results
 
 clean-cache:
 	rm -rf $$HOME/.cache/gearbench

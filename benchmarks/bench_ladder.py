@@ -10,9 +10,12 @@ core loaded from numba's disk cache):
 * ``two_16s``: 16 s, a load spring (1.5 N m/rad at 5 deg) and Coulomb friction at the load (0.6 N m);
 * ``backlash_16s``: 16 s, 3 deg of backlash hidden in the rig written with ``backlash_deg: 0``;
 * ``two_4s``: 4 s, a 3 ms sensor delay on the load angle and Coulomb friction at the motor
-  (0.02 N m).
+  (0.02 N m);
+* ``emps_library``: the EMPS training run (real measurements, ``data/emps/DATA_EMPS.mat`` through
+  ``gearbench import emps``), closed loop, from the bare plant with its mass free and no
+  calibration, as ``studies.emps``'s whole-library ladder.
 
-Targets: 60 s for each 16 s record, 30 s for the 4 s one.  ``--python`` and ``--pythonpath``
+Targets: 60 s for each 16 s record, 30 s for the 4 s one, 300 s for EMPS.  ``--python`` and ``--pythonpath``
 run the same commands with another interpreter or another checkout's ``gearbench`` (the
 figure of the code before a change, measured in the same session); ``--label`` names that
 run in ``results/bench.json`` (``ladder_<label>``).  A diagnosis still running after
@@ -35,7 +38,7 @@ import click
 
 REPO = Path(__file__).resolve().parents[1]
 PLANTS = REPO / "experiments" / "plants"
-TARGET_S = {"16": 60.0, "4": 30.0}
+TARGET_S = {"16": 60.0, "4": 30.0, "emps": 300.0}
 
 RECORDS = {  # name -> (plant the record is made from and diagnose is given, duration s, hidden effects)
     "none_16s": ("bench_rig.yaml", 16, []),
@@ -47,6 +50,11 @@ RECORDS = {  # name -> (plant the record is made from and diagnose is given, dur
                ["sensor_delay signal=load_angle_deg delay=0.003", "coulomb_friction location=motor torque=0.02"]),
 }
 SEED = 3
+EMPS = {  # name -> (plant, the benchmark's file, what diagnose is given besides)
+    "emps_library": ("emps_bare.yaml", REPO / "data" / "emps" / "DATA_EMPS.mat",
+                     ["--controller", str(REPO / "experiments" / "controllers" / "emps.yaml"),
+                      "--free", "leadscrew.mass", "--no-calibrate"]),
+}
 
 
 def gearbench(python: str, pythonpath: str | None) -> tuple[list[str], dict]:
@@ -74,9 +82,13 @@ def check_imported(python: str, pythonpath: str | None) -> None:
 
 
 def make_record(name: str, folder: Path) -> Path:
-    src, duration, hidden = RECORDS[name]
     out = folder / f"{name}.csv"
     cmd, env = gearbench(sys.executable, None)
+    if name in EMPS:
+        subprocess.run(cmd + ["import", "emps", str(EMPS[name][1]), "-o", str(out)], check=True, env=env,
+                       capture_output=True, cwd=NEUTRAL)
+        return out
+    src, duration, hidden = RECORDS[name]
     args = cmd + ["synth", str(PLANTS / src), "--excitation", "mixed", "--duration", str(duration),
                   "--seed", str(SEED), "-o", str(out)]
     for e in hidden:
@@ -86,16 +98,21 @@ def make_record(name: str, folder: Path) -> Path:
 
 
 def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout: float, out: Path) -> dict:
-    plant, duration, hidden = RECORDS[name]
+    if name in EMPS:
+        plant, _, extra = EMPS[name]
+        target, hidden = TARGET_S["emps"], []
+    else:
+        plant, duration, hidden = RECORDS[name]
+        target, extra = TARGET_S[str(duration)], []
     cmd, env = gearbench(python, pythonpath)
-    args = cmd + ["diagnose", str(PLANTS / plant), str(data), "--json", "--results", str(out)]
+    args = cmd + ["diagnose", str(PLANTS / plant), str(data), "--json", "--results", str(out)] + extra
     t0 = time.perf_counter()
     try:
         p = subprocess.run(args, env=env, capture_output=True, text=True, timeout=timeout, cwd=NEUTRAL)
     except subprocess.TimeoutExpired:
         return {"wall_s": None, "status": f"stopped after {timeout:g} s", "hidden": hidden}
     wall = time.perf_counter() - t0
-    row = {"wall_s": wall, "target_s": TARGET_S[str(duration)], "hidden": hidden, "exit": p.returncode}
+    row = {"wall_s": wall, "target_s": target, "hidden": hidden, "exit": p.returncode}
     if p.returncode != 0:
         row["status"] = "failed"
         row["stderr"] = p.stderr[-2000:]
@@ -112,11 +129,12 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
 @click.option("--python", default=sys.executable, show_default=True, help="Interpreter that runs gearbench.")
 @click.option("--pythonpath", default=None, help="A checkout whose gearbench to run instead (PYTHONPATH).")
 @click.option("--label", default="", help="Stored as ladder_<label> in results/bench.json (default: ladder).")
-@click.option("--only", "names", multiple=True, type=click.Choice(sorted(RECORDS)), help="Only these records.")
+@click.option("--only", "names", multiple=True, type=click.Choice(sorted(RECORDS) + sorted(EMPS)),
+              help="Only these records.")
 @click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
 def main(python, pythonpath, label, names, timeout):
     from bench_store import merge
-    names = names or tuple(RECORDS)
+    names = names or tuple(RECORDS) + tuple(EMPS)
     check_imported(python, pythonpath)
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:

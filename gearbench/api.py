@@ -910,7 +910,7 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
     cluster at this address, one task each (``identify.executor``; in this process
     without it).  Shared by :func:`fit` and ``gearbench fit``."""
     from .identify import calibration
-    from .identify.diagnose import CALIBRATION_RESTARTS, Candidate, _run_candidate, _start_values, candidates
+    from .identify.diagnose import CALIBRATION_RESTARTS, Candidate, _run_candidate, _start_values, candidates, not_tried
     from .identify.executor import Executor
     from .identify.fit import Free, Scorer
     from .plant.effects import REGISTRY
@@ -919,6 +919,9 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
         raise ValueError(f"effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
     options = dict(options or {})
     places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in options.items())]
+    why = not_tried(plant, replay, (name,)).get(name)
+    if why:
+        raise ValueError(f"effect {name}: it cannot act on plant {plant.name}: {why}")
     if not places:
         raise ValueError(f"effect {name}: it cannot be added here (already in the plant, not applicable "
                          f"to it, or options {options} not allowed)")

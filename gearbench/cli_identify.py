@@ -225,7 +225,8 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
                    "(e.g. the drive force) in closed loop.  'stopped' says why the ladder ended: \"noise floor\", "
                    "\"nothing pays\", \"max steps\" or \"time limit\".  'noise_floors': each signal's floor, "
                    "unit and whether it was stated (--noise); 'residual_tests': the final model's, per signal "
-                   "(white, input_independent, lag1, ljung_box_p, sentence).")
+                   "(white, input_independent, lag1, ljung_box_p, sentence); 'not_tried': the effects that "
+                   "cannot act on this plant and record, each with why.")
 def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, calibrate,
              max_steps, time_limit_s, workers, scheduler, quiet, results, as_json):
     """Which physical effect is the model missing?
@@ -278,6 +279,9 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
                   f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
                   + ", ".join(f"{p} = {v:.4g}" for p, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |")
     md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
+    if d.not_tried:
+        md += ["", "Not tried (they cannot act on this plant and record):", ""]
+        md += [f"- {name}: {why}" for name, why in d.not_tried.items()]
     if cal:
         md += ["", "## Calibration of the plant's own values (the final model)", "",
                "| value | file | calibrated | standard error | unit | tolerance | |", "|---|---|---|---|---|---|---|"]
@@ -296,6 +300,8 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
         tab.add_row(t.candidate.label(), pars if t.ok else t.note[:60],
                     f"{t.result.error:.4g}" if t.ok else "—", f"{t.result.bic:.6g}" if t.ok else "—")
     stdout().print(tab)
+    for name, why in d.not_tried.items():
+        stdout().print(f"not tried: {name} — {why}", highlight=False)
     _print_ladder(d, stdout())
     stdout().print(f"noise floor: {d.noise_floor:.4g} {d.unit}")
     for k, c in cal.items():

@@ -369,7 +369,7 @@ def run_ladder(runs: Runs, ctrl: SampledPV, only: tuple[str, ...] = PAPER_STRUCT
               "bic": t.result.bic if t.ok else None, "note": t.note} for t in d.tried]
     return {"rows": rows, "plant": d.plant, "params": paper_params(d.plant), "candidates": cands,
             "verdict": d.verdict, "reason": d.reason, "seconds": seconds, "diagnosis": d,
-            "only": list(only)}
+            "only": list(only), "not_tried": d.not_tried}
 
 
 def paper_ladder(runs: Runs, ctrl: SampledPV, workers: int | None = None,
@@ -839,7 +839,7 @@ def run_study(results: str | Path, data_dir: str | Path | None = None, workers: 
     summary["carriage_force_negative_left_out"] = carriage_force_negative_left_out()
     old = results / "emps.json"
     if lib is None and old.is_file():
-        # the whole-library ladder takes an hour: a run without it keeps the last one's
+        # a run without the whole-library ladder (--no-library) keeps the last one's
         earlier = json.loads(old.read_text()).get("library_ladder")
         if earlier is not None:
             summary["library_ladder"] = dict(earlier, from_earlier_run=True)
@@ -903,7 +903,7 @@ def build_summary(runs: Runs, by_delay: dict, delays: Sequence[int], lib: dict |
             "candidates_first_step": lib["candidates"], "verdict": lib["verdict"],
             "reason": lib["reason"], "seconds": lib["seconds"],
             "validation_force_error_pct": lib["validation_force_error_pct"],
-            "spring_force_N": lib.get("spring_force_N"),
+            "spring_force_N": lib.get("spring_force_N"), "not_tried": lib["not_tried"],
         }
     if comp is not None:
         out["compliance"] = _plain({k: v for k, v in comp.items() if k != "sims"})
@@ -980,7 +980,7 @@ def markdown(s: dict) -> str:
         L += ["### The same ladder over the whole effect library", "",
               "`diagnose(...)` with no `only`: every effect that can act on this plant and record."
               + (" Kept from an earlier run with the whole library (this run skipped it; "
-                 "`make emps-library` recomputes it)." if lib.get("from_earlier_run") else ""), "",
+                 f"`{COMMAND}` recomputes it)." if lib.get("from_earlier_run") else ""), "",
               "| step | train force error | parameters of the step |", "|---|---|---|"]
         for i, r in enumerate(lib["ladder"]):
             sp = ", ".join(f"{k} {_f(v, 4)}" for k, v in r["step_params"].items())
@@ -992,6 +992,9 @@ def markdown(s: dict) -> str:
               f"Took {lib['seconds']:.0f} s.", "",
               "First-step candidates: " + "; ".join(
                   f"{c['effect']} {_pct(c['train_force_error_pct'])}" for c in lib["candidates_first_step"]) + ".", ""]
+        if lib.get("not_tried"):
+            L += ["Not tried (they cannot act on this plant and record):", ""]
+            L += [f"- `{name}`: {why}." for name, why in lib["not_tried"].items()] + [""]
         first = lib["ladder"][1]["effect"] if len(lib["ladder"]) > 1 else None
         if first and first != d0["ladder"][1]["effect"]:
             L += [f"**Finding:** unaided, the ladder starts with `{first}` rather than "
@@ -1004,9 +1007,10 @@ def markdown(s: dict) -> str:
                   f"{_pct(stri['train_force_error_pct'], 3)} against Coulomb's {_pct(coul['train_force_error_pct'], 3)}, "
                   f"with static force {_f(sp.get('static_force'), 3)} N, Coulomb force {_f(sp.get('coulomb_force'), 4)} N, "
                   f"Stribeck speed {_f(sp.get('stribeck_speed_m_s'), 3)} m/s: "
-                  + ("its breakaway falls below the sliding level, i.e. it reduces to Coulomb friction, and the "
-                     "BIC charges its two extra parameters, so Coulomb wins: the data show no breakaway peak."
-                     if (sp.get('static_force') or 0) <= (sp.get('coulomb_force') or 0) else
+                  + ("its breakaway is not above the sliding level by 1 % of it, i.e. it reduces to Coulomb "
+                     "friction, and the BIC charges its two extra parameters, so Coulomb wins: the data show no "
+                     "breakaway peak."
+                     if (sp.get('static_force') or 0) <= 1.01 * (sp.get('coulomb_force') or 0) else
                      "a breakaway above the sliding level; the BIC decides between them.")
                   + f" (BIC {stri['bic']:.1f} vs {coul['bic']:.1f}.)", ""]
         sf = lib.get("spring_force_N")

@@ -53,6 +53,7 @@ def test_diagnose_json_has_the_spec_keys(record, tmp_path):
     assert r.exit_code == 0, r.output
     out = json.loads(r.output)
     assert {"baseline_error", "noise_floor", "candidates", "verdict", "ladder"} <= set(out)
+    assert out["not_tried"] == {}  # the three of --only can all act on the rig
     assert out["verdict"] == "coulomb_friction"
     assert out["candidates"][0]["effect"] == "coulomb_friction"
     assert out["candidates"][0]["params"]["torque"] == pytest.approx(0.8, rel=0.05)

@@ -110,7 +110,8 @@ def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list
     On a rigid train (no clearance, no shaft) the motor and the load are one
     body, so friction there is tried once, at the load (the carriage).  In a
     closed-loop replay the compared column is the controller's output, which a
-    sensor effect applied after the fact cannot change: those are left out.
+    sensor effect applied after the fact cannot change: those are left out
+    (:func:`not_tried` says why for each).
     """
     have = {(e.name, tuple(sorted((k, v) for k, v in e.values.items() if k in e.effect.options)))
             for e in plant.effects}
@@ -118,12 +119,9 @@ def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list
     resolved = plant.resolved()
     one_body = resolved.gear.rigid and resolved.shaft is None
     out = []
+    skipped = not_tried(plant, replay, only)
     for name, eff in sorted(REGISTRY.items()):
-        if only and name not in only:
-            continue
-        if not eff.applicable(resolved, signals):
-            continue
-        if replay.closed_loop and eff.acts_on == "measured signal":
+        if (only and name not in only) or name in skipped:
             continue
         choices = [{}]
         for opt, allowed in eff.options.items():
@@ -140,6 +138,23 @@ def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list
                                                                for e in plant.effects):
                 continue
             out.append(Candidate(name, c))
+    return out
+
+
+def not_tried(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> dict[str, str]:
+    """The effects of the library (of ``only``, if given) that cannot act on this plant and record,
+    each with why (``Effect.inapplicable``; a sensor effect in a closed-loop replay)."""
+    signals = list(replay.data.signals)
+    resolved = plant.resolved()
+    out = {}
+    for name, eff in sorted(REGISTRY.items()):
+        if only and name not in only:
+            continue
+        if not eff.applicable(resolved, signals):
+            out[name] = eff.inapplicable(resolved, signals) or "it does not apply to this plant"
+        elif replay.closed_loop and eff.acts_on == "measured signal":
+            out[name] = ("a sensor effect cannot change the controller's output, which a closed-loop "
+                         "replay compares")
     return out
 
 
@@ -416,6 +431,7 @@ class Diagnosis:
     stopped: str = ""  # why the ladder ended: one of STOPPED
     noise: dict = field(default_factory=dict)  # column -> {floor, unit, stated}
     residual_tests: dict = field(default_factory=dict)  # column -> residuals.ResidualTest of the final model
+    not_tried: dict = field(default_factory=dict)  # effect -> why it cannot act on this plant and record
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -447,6 +463,8 @@ class Diagnosis:
         ``residual_tests``: per compared column, the final model's residual tests
         (``residuals.ResidualTest``: ``white``, ``input_independent``, ``lag1`` its lag-1
         autocorrelation, ``ljung_box_p``, ``sentence``).
+        ``not_tried``: the effects of the library (of ``only``) that cannot act on this plant and
+        record, each with why (:func:`not_tried`).
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
@@ -483,6 +501,7 @@ class Diagnosis:
                                       "lag1": float(t.autocorrelation[1]), "ljung_box_p": t.ljung_box_p,
                                       "sentence": t.sentence()}
                                for name, t in self.residual_tests.items()},
+            "not_tried": self.not_tried,
             "calibration": self.calibration,
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
@@ -775,7 +794,7 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
         return Diagnosis(base.error, scorer.noise_floor, unit, scorer.primary, first_tried, verdict, ladder,
                          said, current, base, base.plant, scorer.relative_pct(base.sim),
                          cal.report(current, current_res.stderr, cal_step is not None), cal_step, stopped,
-                         _noise(replay, scorer), tests)
+                         _noise(replay, scorer), tests, not_tried(plant, replay, only))
 
     step = 0
     try:

@@ -46,5 +46,5 @@ class AmplifierDeadzone(Effect):
         """Only without a dead zone (threshold 0)."""
         return float(values["threshold"]) == 0.0
 
-    def applicable(self, plant, signals):
-        return plant.drive == "voltage"
+    def inapplicable(self, plant, signals):
+        return "" if plant.drive == "voltage" else f"the plant is {plant.drive}-driven: there is no amplifier voltage"

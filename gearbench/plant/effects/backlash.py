@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from .base import Effect, Param, register
+from .base import Effect, Param, lumped_rotor, register
 
 
 def _clearance_scale(plant, values):
@@ -36,8 +36,10 @@ class Backlash(Effect):
     def fit_params(self, values):
         return self.params[:1]
 
-    def applicable(self, plant, signals):
-        return plant.gear.backlash_deg == 0.0
+    def inapplicable(self, plant, signals):
+        if plant.gear.backlash_deg != 0.0:
+            return "the gear already has a clearance (gear.backlash_deg)"
+        return lumped_rotor(plant)
 
     def apply(self, values, plant):
         gear = replace(plant.gear, backlash_deg=float(values["backlash_deg"]))

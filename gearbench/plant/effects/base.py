@@ -153,8 +153,14 @@ class Effect:
         return plant
 
     def applicable(self, plant, signals) -> bool:
-        """Whether this effect can be added to ``plant`` for a record measuring ``signals``."""
-        return True
+        """Whether this effect can be added to ``plant`` for a record measuring ``signals``
+        (by default: when :meth:`inapplicable` gives no reason)."""
+        return not self.inapplicable(plant, signals)
+
+    def inapplicable(self, plant, signals) -> str:
+        """Why this effect cannot be added to ``plant`` for a record measuring ``signals``, "" when
+        it can: ``diagnose`` lists it among the effects it did not try, ``fit`` stops with it."""
+        return ""
 
     def estimate(self, values: dict, measured: dict, plant) -> dict | None:
         """Parameters read straight from the measured signals, for effects a
@@ -177,6 +183,27 @@ class Effect:
         opts = ", ".join(f"{k}: {'|'.join(v)}" for k, v in {**self.options, **self.settings}.items())
         return f"{self.name}: {doc} Acts on the {self.acts_on}; parameters {pars}" + (
             f"; {opts}" if opts else "")
+
+
+ROTOR_MIN_SHARE = 1e-3
+"""Below this share of the inertia it drives (its own plus the load's, reflected), a plant's rotor
+is a placeholder: servo sizing keeps the load-to-rotor inertia ratio under about 10:1 (100:1 with a
+stiff coupling), so 1000:1 is a file that lumped the rotor into the load (EMPS's: 1e-5)."""
+
+
+def lumped_rotor(plant) -> str:
+    """Why a clearance or a spring between the rotor and the load cannot go into ``plant`` (resolved),
+    "" when it can: with the rotor lumped into the load, the side of the clearance or the spring the
+    drive acts on would carry next to no inertia, a split the file does not state (and the free
+    rotor in a closed loop would chatter at the solver's smallest steps)."""
+    jm = plant.motor_inertia_total
+    total = jm + plant.output_inertia / plant.gear.ratio ** 2
+    if jm >= ROTOR_MIN_SHARE * total:
+        return ""
+    return (f"the rotor (motor.inertia {jm:.3g} kg m^2) is {jm / total:.2g} of the inertia it drives "
+            f"({total:.3g} kg m^2 at the motor with the load's): the plant file lumps the rotor into the load, "
+            f"and a clearance or a shaft between them needs the rotor's own inertia; to try one, give "
+            f"motor.inertia the rotor's value and take it out of the load's")
 
 
 REGISTRY: dict[str, Effect] = {}

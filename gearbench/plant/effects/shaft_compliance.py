@@ -13,7 +13,7 @@ import math
 from dataclasses import replace
 
 from ..components import Shaft
-from .base import Effect, Param, register
+from .base import Effect, Param, lumped_rotor, register
 
 
 def _stiffness_scale(plant, values):
@@ -60,8 +60,8 @@ class ShaftCompliance(Effect):
               "inertia beyond the spring, taken out of the motor's"),
     )
 
-    def applicable(self, plant, signals):
-        return plant.shaft is None
+    def inapplicable(self, plant, signals):
+        return "the plant already has a shaft" if plant.shaft is not None else lumped_rotor(plant)
 
     def apply(self, values, plant):
         if plant.shaft is not None:
