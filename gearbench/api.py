@@ -918,13 +918,13 @@ def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = No
     if name not in REGISTRY:
         raise ValueError(f"effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
     options = dict(options or {})
-    places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in options.items())]
     why = not_tried(plant, replay, (name,)).get(name)
     if why:
         raise ValueError(f"effect {name}: it cannot act on plant {plant.name}: {why}")
+    places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in options.items())]
     if not places:
-        raise ValueError(f"effect {name}: it cannot be added here (already in the plant, not applicable "
-                         f"to it, or options {options} not allowed)")
+        raise ValueError(f"effect {name}: it cannot be added here (already in the plant, or options "
+                         f"{options} not allowed)")
     for c in places:  # a misspelt starting value would ride along in the plant, unused
         keys = {file_key(c.options, q.name) if "location" in REGISTRY[name].options else q.name: q.unit
                 for q in REGISTRY[name].params}
