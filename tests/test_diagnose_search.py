@@ -11,7 +11,7 @@ import pytest
 from gearbench.experiment.files import load_plant
 from gearbench.identify import search
 from gearbench.identify import diagnose as diagnose_module
-from gearbench.identify.diagnose import Candidate, Tried, _fit_pairs, _rank, diagnose, try_candidate
+from gearbench.identify.diagnose import Candidate, Tried, _pair_jobs, _rank, diagnose, try_candidate
 from gearbench.identify.evidence import location_text, signal_evidence
 from gearbench.identify.fit import Free, FitResult, Scorer, fit, get_value, own_jacobian, set_values
 from gearbench.identify.replay import Replay
@@ -143,7 +143,7 @@ def test_a_stribeck_fit_never_ends_below_its_sliding_level():
     assert t.params["coulomb_torque"] == pytest.approx(0.6, rel=0.15)
 
 
-def test_a_declared_confounder_is_paired_whatever_it_ranks_alone(monkeypatch):
+def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
     """The pairs of the six best effects, plus each of them with the best place of an effect
     declared confounded with it (either way: the bias declares Coulomb and Stribeck friction and
     the spring), never twice and never two dry frictions; an undeclared low-ranked effect is not
@@ -154,15 +154,49 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone(monkeypatch):
     tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
                    {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
     tried.insert(3, Tried(Candidate("bias_torque", {}), None))  # a failed fit of another place does not count
-    monkeypatch.setattr(diagnose_module, "_map", lambda fn, jobs, workers, progress: jobs)
-    pairs = {frozenset((j[3].candidate.name, j[4].candidate.name)) for j in
-             _fit_pairs(None, None, plant, tried, (), (), None, diagnose_module._Tracker(None))}
+    jobs = _pair_jobs(None, None, plant, tried, (), ())
+    pairs = {frozenset((j[3].candidate.name, j[4].candidate.name)) for j in jobs}
     top = ranked[:6]
     expected = {frozenset((a, b)) for i, a in enumerate(top) for b in top[i + 1:]
                 if {a, b} != {"stribeck_friction", "coulomb_friction"}}
     expected |= {frozenset(("stribeck_friction", "bias_torque")), frozenset(("coulomb_friction", "bias_torque"))}
     assert pairs == expected
     assert all(frozenset((a, "encoder_quantization")) not in pairs for a in top)
+    order = [(ranked.index(j[3].candidate.name), ranked.index(j[4].candidate.name)) for j in jobs]
+    assert order == sorted(order) and order[:2] == [(0, 1), (0, 3)]  # the confounder with the best before pairs of the second
+    assert (0, 7) in order and order.index((0, 7)) < order.index((1, 2))
+
+
+def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(monkeypatch):
+    """Pairs are fitted ``PAIR_BATCH`` at a time in rank order; once a batch ends with a pair
+    within ``AT_NOISE`` of the noise floors the rest are not fitted (and are counted), whatever
+    the number of workers; with none at the floors every pair is fitted."""
+    from types import SimpleNamespace
+    plant = _rig()
+    ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
+              "shaft_compliance"]
+    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+                   {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
+    jobs = _pair_jobs(None, None, plant, tried, (), ())
+    assert len(jobs) > 2 * diagnose_module.PAIR_BATCH
+
+    def run(at_noise: int, workers):
+        batches = []
+
+        def fake_map(fn, batch, workers, progress):
+            batches.append(len(batch))
+            return [diagnose_module.Pair(j[3], j[4], SimpleNamespace(
+                converged=True, error=1.0, weighted_rms=1.0 if jobs.index(j) == at_noise else 5.0)) for j in batch]
+        monkeypatch.setattr(diagnose_module, "_map", fake_map)
+        fitted, unfitted = diagnose_module._fit_pairs(None, None, plant, tried, (), (), workers,
+                                                      diagnose_module._Tracker(None))
+        return len(fitted), unfitted, batches
+
+    b = diagnose_module.PAIR_BATCH
+    for workers in (1, 2):
+        assert run(b + 1, workers) == (2 * b, len(jobs) - 2 * b, [b, b])
+    assert run(0, 2) == (b, len(jobs) - b, [b])
+    assert run(-1, 2)[:2] == (len(jobs), 0)
 
 
 @pytest.mark.slow

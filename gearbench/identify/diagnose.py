@@ -73,6 +73,7 @@ AT_NOISE = 1.2             # a weighted RMS within 1.2x the noise floors is expl
 JOINT_TOP = 3              # candidates refitted jointly with the effects already added
 CALIBRATION_RESTARTS = 3    # the calibration fit restarts on a stall (fit)
 PAIR_TOP = 6               # effects whose best places are refitted jointly in pairs (15 pairs at most)
+PAIR_BATCH = 4             # pairs fitted at a time, until one reaches the noise floors
 
 
 @dataclass
@@ -309,23 +310,46 @@ def _run_pair(args):
     return try_pair(*args)
 
 
-def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers, track: _Tracker) -> list[Pair]:
-    """Every pairable pair (:func:`_pairable`) of the best places of the ``PAIR_TOP`` best effects,
-    and of each of them with the best place of each effect it is confounded with (``confounders``,
-    either way) wherever that ranked, fitted jointly (the best few candidates are often one effect
-    in several places; a bias hidden with Coulomb friction ranks low alone, as the friction
-    explains most of what it does)."""
+def _pair_jobs(replay, scorer, plant, tried, free_plant, refit) -> list[tuple]:
+    """The arguments of :func:`try_pair` for every pairable pair (:func:`_pairable`) of the best
+    places of the ``PAIR_TOP`` best effects, and of each of them with the best place of each effect
+    it is confounded with (``confounders``, either way) wherever that ranked (the best few
+    candidates are often one effect in several places; a bias hidden with Coulomb friction ranks
+    low alone, as the friction explains most of what it does).  In the order of the members' ranks
+    alone, the better member's first: the best effect with each of its partners, then the second
+    best, and so on."""
     best = {}
     for t in tried:
         if t.ok:
             best.setdefault(t.candidate.name, t)
+    rank = {name: i for i, name in enumerate(best)}
     top = list(best.values())[:PAIR_TOP]
     names = {t.candidate.name for t in top}
     pairs = [(a, b) for i, a in enumerate(top) for b in top[i + 1:]]
     pairs += [(a, best[name]) for a in top for name in sorted(_confounders(a.candidate.name))
               if name in best and name not in names]
-    jobs = [(replay, scorer, plant, a, b, free_plant, refit) for a, b in pairs if _pairable(a, b)]
-    return _map(_run_pair, jobs, workers, track.stage("pairs", len(jobs)))
+    pairs.sort(key=lambda p: (rank[p[0].candidate.name], rank[p[1].candidate.name]))
+    return [(replay, scorer, plant, a, b, free_plant, refit) for a, b in pairs if _pairable(a, b)]
+
+
+def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers,
+               track: _Tracker) -> tuple[list[Pair], int]:
+    """The pairs of :func:`_pair_jobs` fitted jointly, ``PAIR_BATCH`` at a time, until a batch
+    ends with a pair within ``AT_NOISE`` of the noise floors; returns the pairs fitted and how
+    many were left unfitted.  Past the noise floors another pair could only tie on the error,
+    and the pairs come in the order of their members' ranks.  What this gives up: a later pair
+    at the floors with fewer parameters, which the BIC would prefer by ln n per parameter;
+    ``_simplify`` recovers it where it is the simpler form of the same effect (Coulomb for
+    Stribeck friction).  The batches are fixed (not the workers' count), so the answer does
+    not depend on how many ran."""
+    jobs = _pair_jobs(replay, scorer, plant, tried, free_plant, refit)
+    each = track.stage("pairs", len(jobs))
+    out: list[Pair] = []
+    for start in range(0, len(jobs), PAIR_BATCH):
+        out += _map(_run_pair, jobs[start:start + PAIR_BATCH], workers, each)
+        if any(p.ok and p.result.weighted_rms <= AT_NOISE for p in out):
+            break
+    return out, len(jobs) - len(out)
 
 
 STOPPED = ("noise floor", "nothing pays", "max steps", "time limit", "interrupted")
@@ -605,23 +629,27 @@ def _accepts(current: FitResult, new: FitResult) -> bool:
 
 def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers, track):
     """The pair of lowest BIC (:func:`_fit_pairs`) when it beats both the current model and the
-    best single candidate by :func:`_accepts`; None when none does, or when the best single
-    already explains the record down to its noise (nothing left for a pair to resolve)."""
+    best single candidate by :func:`_accepts`, and how many pairs were left unfitted; None when
+    none does, or when the best single already explains the record down to its noise (nothing
+    left for a pair to resolve)."""
     if best.result.weighted_rms <= AT_NOISE or current_res.weighted_rms <= AT_NOISE:
-        return None
-    pairs = [p for p in _fit_pairs(replay, scorer, current, tried, free_plant, added, workers, track) if p.ok]
+        return None, 0
+    fitted, unfitted = _fit_pairs(replay, scorer, current, tried, free_plant, added, workers, track)
+    pairs = [p for p in fitted if p.ok]
     if not pairs:
-        return None
+        return None, unfitted
     pair = min(pairs, key=lambda p: p.result.bic)
-    return pair if _accepts(current_res, pair.result) and _accepts(best.result, pair.result) else None
+    return (pair if _accepts(current_res, pair.result) and _accepts(best.result, pair.result) else None), unfitted
 
 
-def _pair_text(pair: Pair, best: Tried) -> str:
+def _pair_text(pair: Pair, best: Tried, unfitted: int) -> str:
     """Why two rungs at once: the pair against the best single candidate."""
     r, b = pair.result, best.result
+    rest = (f" The {unfitted} pair{'s' if unfitted > 1 else ''} ranked after were not fitted: "
+            f"this one reached the noise floors." if unfitted else "")
     return (f"Added with the next rung as a pair: fitted jointly, {pair.label()} take the weighted RMS to "
             f"{r.weighted_rms:.4g}x the noise floors (BIC {r.bic - b.bic:+.1f} against the best single candidate, "
-            f"{best.candidate.label()}, at {b.weighted_rms:.4g}x): each alone is confounded with the other.")
+            f"{best.candidate.label()}, at {b.weighted_rms:.4g}x): each alone is confounded with the other.{rest}")
 
 
 def _simplify(replay, scorer, res: FitResult, added: tuple[int, ...], free_plant) -> tuple[FitResult, list]:
@@ -859,8 +887,8 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                               f"{current_res.error / scorer.noise_floor:.3g}x the noise floor ({scorer.noise_floor:.4g} "
                               f"{unit}){calibrated} and {gain}{NOT_IN_LIBRARY}")
                 break
-            pair = _better_pair(replay, scorer, current, current_res, best, tried, refitted, added, workers,
-                                track) if len(ladder) + 2 <= max_steps else None
+            pair, unfitted = (_better_pair(replay, scorer, current, current_res, best, tried, refitted, added,
+                                           workers, track) if len(ladder) + 2 <= max_steps else (None, 0))
             track.stage("simplify")
             if pair is None:
                 text = explain(replay, scorer, current_res, best, tried)
@@ -870,7 +898,8 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                 ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
                                    first.result.error, scorer.relative_pct(first.result.sim), first.result.bic,
                                    *_model(first.result.plant, refitted),
-                                   explain(replay, scorer, current_res, first, tried) + " " + _pair_text(pair, best),
+                                   explain(replay, scorer, current_res, first, tried) + " "
+                                   + _pair_text(pair, best, unfitted),
                                    correlations=_correlated(first.result)))
                 rungs.append(len(ladder) - 1)
                 best = second
