@@ -133,7 +133,8 @@ def _space(name: str, args: str, where: str) -> list[float]:
                          f"{MAX_GRID:,}, got {args!r}")
     if name == "geomspace" and (a <= 0 or b <= 0):
         raise SweepError(f"{where}: geomspace needs a, b > 0, got {args!r}")
-    values = getattr(np, name)(a, b, int(n))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, as an error
+        values = getattr(np, name)(a, b, int(n))
     if not np.all(np.isfinite(values)):
         raise SweepError(f"{where}: {name}({args}) overflows")
     return [_round(float(v)) for v in values]

@@ -163,7 +163,8 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
     assert pairs == expected
     assert all(frozenset((a, "encoder_quantization")) not in pairs for a in top)
     order = [(ranked.index(j[3].candidate.name), ranked.index(j[4].candidate.name)) for j in jobs]
-    assert order == sorted(order) and order[:2] == [(0, 1), (0, 3)]  # the confounder with the best before pairs of the second
+    assert order == sorted(order) and order[:2] == [(0, 1), (0, 3)]
+    # the best effect's confounder (the bias, ranked last) comes before the second effect's pairs
     assert (0, 7) in order and order.index((0, 7)) < order.index((1, 2))
 
 

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pandas as pd
@@ -68,13 +69,17 @@ def test_grid_values(text, values):
     ("controller.kp=range(1,2,3)", "unknown function"),
     ("controller.kp=linspace(1,2,3", "unbalanced"),
     ("controller.kp=geomspace(0,2,3)", "a, b > 0"),
+    ("controller.kp=logspace(1,400,3)", "overflows"),
     ("controller.kp=1,1.0", "given twice"),
     ("controller..kp=1", "dotted key path"),
     ("controller.kp=[1", "not a number"),
 ])
 def test_bad_grid_syntax_is_a_clear_error(text, words):
-    with pytest.raises(sw.SweepError, match=words.replace("(", r"\(").replace("+", r"\+")):
-        sw.parse_param(text)
+    """A clear error, and no numpy warning on the way (an overflow of logspace is the error)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(sw.SweepError, match=words.replace("(", r"\(").replace("+", r"\+")):
+            sw.parse_param(text)
 
 
 def test_same_key_twice_is_an_error():
