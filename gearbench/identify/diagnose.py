@@ -629,9 +629,9 @@ def _accepts(current: FitResult, new: FitResult) -> bool:
 
 def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers, track):
     """The pair of lowest BIC (:func:`_fit_pairs`) when it beats both the current model and the
-    best single candidate by :func:`_accepts`, and how many pairs were left unfitted; None when
-    none does, or when the best single already explains the record down to its noise (nothing
-    left for a pair to resolve)."""
+    best single candidate by :func:`_accepts` (else None: none does, or the best single already
+    explains the record down to its noise, nothing left for a pair to resolve), and how many
+    pairs were left unfitted."""
     if best.result.weighted_rms <= AT_NOISE or current_res.weighted_rms <= AT_NOISE:
         return None, 0
     fitted, unfitted = _fit_pairs(replay, scorer, current, tried, free_plant, added, workers, track)
@@ -645,8 +645,8 @@ def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, 
 def _pair_text(pair: Pair, best: Tried, unfitted: int) -> str:
     """Why two rungs at once: the pair against the best single candidate."""
     r, b = pair.result, best.result
-    rest = (f" The {unfitted} pair{'s' if unfitted > 1 else ''} ranked after were not fitted: "
-            f"this one reached the noise floors." if unfitted else "")
+    rest = (f" The {unfitted} pair{'s' if unfitted > 1 else ''} ranked after {'were' if unfitted > 1 else 'was'} "
+            f"not fitted: a pair fitted before reached the noise floors." if unfitted else "")
     return (f"Added with the next rung as a pair: fitted jointly, {pair.label()} take the weighted RMS to "
             f"{r.weighted_rms:.4g}x the noise floors (BIC {r.bic - b.bic:+.1f} against the best single candidate, "
             f"{best.candidate.label()}, at {b.weighted_rms:.4g}x): each alone is confounded with the other.{rest}")
