@@ -983,7 +983,7 @@ class FitReport:
                                value  stderr
     parameter
     effects[0].stiffness        2.34    0.06
-    effects[0].rest_angle_deg   1.25    1.63
+    effects[0].rest_angle_deg   1.26    1.62
     """
     effect: str
     plant: Plant = field(repr=False)

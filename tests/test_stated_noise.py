@@ -21,7 +21,7 @@ from gearbench.cli import main
 from gearbench.experiment.files import ConfigError, load_plant
 from gearbench.identify.compare import comparison
 from gearbench.identify.diagnose import _not_driven, diagnose
-from gearbench.identify.fit import Scorer
+from gearbench.identify.fit import Scorer, objective_signals
 from gearbench.identify.replay import Replay, ReplayError, noise_at_rest
 from gearbench.identify.residuals import residual_test
 from gearbench.identify.synth import excitation, synthesize
@@ -66,6 +66,15 @@ def test_a_stated_noise_is_the_floor_and_the_weight(rig):
     rows = {r["signal"]: r for r in comparison(replay, rig, lags=None)["signals"]}
     assert rows["load_angle_deg"]["noise_floor"] == 0.05
     assert rows["load_angle_deg"]["ratio_to_noise"] == pytest.approx(rows["load_angle_deg"]["rms_error"] / 0.05)
+
+
+def test_the_floors_come_in_the_compared_columns_order():
+    """Every per-signal text and sum runs over ``Scorer.floors``: their order is the record's
+    compared columns', the primary after them where it is not one (a set's order would change
+    with the process's string-hash seed, and with it ``noise`` in ``diagnose --json``)."""
+    replay = Replay(gb.load_measurement(HIDDEN))
+    assert list(Scorer(replay).floors) == objective_signals(replay) == list(replay.data.signals)
+    assert len(replay.data.signals) >= 3
 
 
 def test_the_noise_of_a_record_at_rest_is_its_spread(rig):
