@@ -294,6 +294,24 @@ def test_the_fit_bound_on_a_shaft_stiffness_is_where_the_shaft_turns_rigid_to_th
     assert apart(bound / 100)["motor_angle_deg"] > 3.0
 
 
+def test_a_fit_tries_no_pinion_below_a_thousandth_of_the_motors_inertia():
+    """``Param.fit_low``: the shaft's pinion is fitted from 0.1 % of the motor's inertia up (below it
+    the pinion is a numerical corner where a replay with stick-slip friction takes seconds); a file
+    may hold less, and the Sobol starts stay inside the fit's bounds."""
+    from gearbench.identify.search import sobol_points
+    from gearbench.plant.effects.base import ROTOR_MIN_SHARE
+    rig = _rig()
+    jm = rig.motor_inertia_total
+    tiny = rig.with_effects(AddedEffect("shaft_compliance", {"stiffness": 300.0, "damping": 1e-3,
+                                                             "pinion_inertia": 1e-10 * jm}))
+    assert tiny.resolved().shaft.pinion_inertia == pytest.approx(1e-10 * jm)
+    frees = Free.effect(tiny, 0, 1e-3)
+    pinion = {f.key: f for f in frees}["pinion_inertia"]
+    assert pinion.low == pytest.approx(ROTOR_MIN_SHARE * jm)
+    assert {f.key: f for f in frees}["stiffness"].low == REGISTRY["shaft_compliance"].params[0].low
+    assert sobol_points(frees)[:, 2].min() >= pinion.low
+
+
 def test_a_pair_that_gains_nothing_over_its_better_member_gets_no_second_round(monkeypatch):
     """``try_pair`` gives its fits ``rounds_below`` = the lower RSS of its two members alone: a pair
     must beat that to pay (``_better_pair``), so a first round that has not is the last."""

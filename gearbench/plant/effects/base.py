@@ -76,7 +76,9 @@ class Param:
     or a number), the fit's starting point and step; integer: whole numbers only;
     fit_high: where a record cannot tell larger values from the limit the parameter
     tends to, ``fit_high(plant, values, sample_time_s)`` bounds a fit to a record
-    sampled every ``sample_time_s`` s (a file may still hold more, up to ``high``).
+    sampled every ``sample_time_s`` s (a file may still hold more, up to ``high``);
+    fit_low: ``fit_low(plant, values)``, a fit's lower bound above ``low`` where smaller values
+    are not physical and only make the model stiff (a file may still hold less, down to ``low``).
     """
     name: str
     unit: str
@@ -89,6 +91,11 @@ class Param:
     start: float | None = None  # where a fit starts (default: the typical value)
     carriage: str | None = None  # its name with ``location: carriage`` (a force, N), if it differs
     fit_high: Any = None
+    fit_low: Any = None
+
+    def fit_floor(self, plant, values: dict) -> float:
+        """The fit's lower bound on ``plant`` (``low`` without a ``fit_low``)."""
+        return self.low if self.fit_low is None else max(self.low, float(self.fit_low(plant, values)))
 
     def fit_bound(self, plant, values: dict, sample_time_s: float | None) -> float:
         """The fit's upper bound on ``plant`` for a record sampled every ``sample_time_s`` s

@@ -13,7 +13,7 @@ import math
 from dataclasses import replace
 
 from ..components import Shaft
-from .base import Effect, Param, lumped_rotor, register
+from .base import ROTOR_MIN_SHARE, Effect, Param, lumped_rotor, register
 
 
 def _stiffness_scale(plant, values):
@@ -46,6 +46,15 @@ def _pinion_scale(plant, values):
     return 0.3 * plant.motor_inertia_total
 
 
+def _pinion_floor(plant, values):
+    # A steel pinion is rarely below 1 % of its motor's inertia; the fit tries 0.1 % and up (the
+    # rotor's own floor, ROTOR_MIN_SHARE).  Below it the pinion between a stiff shaft and the mesh
+    # is a numerical corner, not a part: a screen fit on issue 18's 4 s record walked to 1e-15
+    # kg m^2 (1e-10 of the rotor), where a replay with the rotor's stick-slip friction took 4-6 s
+    # to exhaust its step budget; at 1e-3 of the rotor the same shaft replays in 0.03-0.3 s.
+    return ROTOR_MIN_SHARE * plant.motor_inertia_total
+
+
 @register
 class ShaftCompliance(Effect):
     """A torsional shaft between rotor and pinion."""
@@ -57,7 +66,7 @@ class ShaftCompliance(Effect):
               fit_high=_stiffness_bound),
         Param("damping", "N m s/rad", 0.0, 1e12, _damping_scale, "torsional damping"),
         Param("pinion_inertia", "kg m^2", 0.0, 1e6, _pinion_scale,
-              "inertia beyond the spring, taken out of the motor's"),
+              "inertia beyond the spring, taken out of the motor's", fit_low=_pinion_floor),
     )
 
     def inapplicable(self, plant, signals):
