@@ -424,7 +424,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
             # a stop on the step size alone (status 3) after secant updates may be a trust region
             # their poorer foresight shrank: go on from there with a fresh Jacobian and trust region
             # (the hidden shaft compliance of studies.hidden_effects stopped so at 125.6 N m/rad
-            # and 3.19x the noise floors; going on, 19.74 for 20 at 1.60x)
+            # and 3.19x the noise floors; going on, 19.6 for 20 at 1.3x)
             if res.status != 3 or not secant.updates or not gained or used >= budget:
                 break
             z = res.x

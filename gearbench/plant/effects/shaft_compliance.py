@@ -47,9 +47,9 @@ def _pinion_scale(plant, values):
 
 
 def _pinion_floor(plant, values):
-    # A steel pinion is rarely below 1 % of its motor's inertia; the fit tries 0.1 % and up (the
-    # rotor's own floor, ROTOR_MIN_SHARE).  Below it the pinion between a stiff shaft and the mesh
-    # is a numerical corner, not a part: a screen fit on issue 18's 4 s record walked to 1e-15
+    # The fit tries pinions of 0.1 % of the motor's inertia and up (the rotor's own floor,
+    # ROTOR_MIN_SHARE).  Far below it the pinion between a shaft and the mesh is a numerical
+    # corner, not a part: a screen fit on issue 18's 4 s record walked to 1e-15
     # kg m^2 (1e-10 of the rotor), where a replay with the rotor's stick-slip friction took 4-6 s
     # to exhaust its step budget; at 1e-3 of the rotor the same shaft replays in 0.03-0.3 s.
     return ROTOR_MIN_SHARE * plant.motor_inertia_total
