@@ -325,10 +325,10 @@ class SecantJacobian:
         z = np.array(z, dtype=float)
         first = len(self.trials) == 1 and np.array_equal(self.trials[0][0], z)
         r = self.trials[-1][1] if self.trials and np.array_equal(self.trials[-1][0], z) else self.fun(z)
-        if self.J is not None:
-            self.poor = self.poor + 1 if self._poorly_foretold(z, r) else 0
         if self.J is None:
             self.start_rss = float(r @ r)
+        else:
+            self.poor = self.poor + 1 if self._poorly_foretold(z, r) else 0
         if self.J is None or not first or self.poor >= POOR_STEPS:
             self.J = self.fresh(z, r)
             self.poor = 0
