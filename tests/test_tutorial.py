@@ -56,6 +56,12 @@ def test_fit_then_compare(tmp_path):
     spring = gb.fit(PLANT, RECORD, "load_spring")
     both = gb.fit(spring.plant, RECORD, "coulomb_friction", options={"location": "load"}, refit=True)
     values = {e.name: e.values for e in both.plant.effects}
+    # the standard errors hold: each value within 3 of them of the truth (the rest angle's was once
+    # 8e-9 deg, 580 of them off, from a finite-difference step that shrank with the value)
+    truth = {"effects[0].stiffness": 2.0, "effects[0].rest_angle_deg": 0.0, "effects[1].torque": 0.96}
+    assert set(both.values) == set(truth)
+    for name, t in truth.items():
+        assert abs(both.values[name] - t) <= 3 * both.stderr[name], (name, both.values[name], both.stderr[name])
     assert values["load_spring"]["stiffness"] == pytest.approx(2.000, abs=5e-4)
     assert values["coulomb_friction"]["torque"] == pytest.approx(0.9600, abs=5e-5)
     s = by_signal(gb.compare(both.plant, RECORD))

@@ -280,8 +280,8 @@ class SecantJacobian:
 
         J+ = J + (r+ - r - J dz) dz^T / (dz^T dz),
 
-    which costs no replay.  Fresh (forward differences of step ``1e-3 max(1, |z|)``, central with
-    ``central``: what ``least_squares(diff_step=1e-3)`` takes) at the start, after a step the
+    which costs no replay.  Fresh (forward differences of step :func:`fd_step`, central with
+    ``central``) at the start, after a step the
     trust region rejected at least once, and after :data:`POOR_STEPS` poorly foretold steps in a
     row; :meth:`fresh` gives the finite-difference one at the end, for the standard errors, and
     :func:`fit` goes on with a fresh one (and a fresh trust region) from a stop on the step size
@@ -311,8 +311,11 @@ class SecantJacobian:
     def fresh(self, z, r) -> np.ndarray:
         """The finite-difference Jacobian at ``z`` (residual ``r`` there)."""
         self.updated = False
-        # scipy's own differences, with its rule at the bounds (a step leaving them is reversed)
-        return approx_derivative(self.fun, z, method=self.method, rel_step=1e-3, f0=r, bounds=self.bounds)
+        # scipy's own differences, with its rule at the bounds (a step leaving them is reversed).  The
+        # step is given absolute: scipy's ``rel_step`` takes ``1e-3 |z|``, which near z = 0 (a rest
+        # angle at 0 deg) fell to the scale of the replay's solver error: the tutorial's rest angle
+        # had a standard error of 8e-9 deg where its estimates spread by 6e-6 over noise seeds
+        return approx_derivative(self.fun, z, method=self.method, abs_step=fd_step(z), f0=r, bounds=self.bounds)
 
     def _poorly_foretold(self, z, r) -> bool:
         """Whether the step from the last point to ``z`` lowered the cost by less than
@@ -339,6 +342,18 @@ class SecantJacobian:
             self.updates += 1
         self.z, self.r, self.trials = z, r, []
         return self.J
+
+
+FD_STEP = 1e-3
+"""Finite-difference step of the fit coordinates (the values over their typical scale)."""
+
+
+def fd_step(z) -> np.ndarray:
+    """The finite-difference steps at ``z``: ``FD_STEP max(1, |z|)``, signed as ``z`` (+ at 0).
+    Not scipy's relative step ``FD_STEP |z|`` (``least_squares(diff_step=)``, ``approx_derivative(rel_step=)``),
+    which shrinks with ``z`` to nothing near 0 and below the solver's error well before."""
+    z = np.asarray(z, dtype=float)
+    return FD_STEP * np.where(z >= 0.0, 1.0, -1.0) * np.maximum(1.0, np.abs(z))
 
 
 RESTART_GAIN = 1e-3
