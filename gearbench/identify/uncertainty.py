@@ -46,16 +46,16 @@ prewhitened Newey-West 93/93/87/100/90 %, the white formula 30/33/33/40/27 %; wi
 noise all four within a few points of each other (90-93 %).  A moving-block bootstrap
 needs a refit per replicate (0.5-1 s each on those 4 s records): too dear inside
 ``diagnose``, not tried.  The figures of the method kept
-(``python -m studies.coverage``, results/coverage.md, 60 seeds): steps excitation, white
-noise 95/100/92/95/90 %, AR(1) 98/100/93/100/92 % (the white formula 25/32/22/38/37 %);
-mixed excitation, white 90/93/90/93/92 %, AR(1) 92/95/87/100/95 % (white formula
-27/25/37/42/33 %).  The stiffness's 87 % on mixed AR(1) records is the one figure below
-90 %; there the RMS of (fitted - truth) / SE is 1.18 (1 when calibrated), and 1.0-1.3 for
-every parameter on mixed records even with white noise, where all estimators agree (why
-is not established; the error the sandwich's linearisation predicts from the actual noise
-matched the fitted error on the records checked).  The estimator is conservative where a
-score is nearly a random walk: the rest angle's standard error under AR(1) noise came out
-about 3-4x too large (rms z 0.24-0.29).
+(``python -m studies.coverage``, results/coverage.md, 60 seeds; 2026-11-27): steps excitation,
+white noise 93/98/92/93/90 %, AR(1) 97/97/95/100/93 % (the white formula 25/37/20/32/38 %);
+mixed excitation, white 93/93/90/95/92 %, AR(1) 92/97/90/100/97 % (white formula
+28/35/38/37/28 %).  The RMS of (fitted - truth) / SE is 1.1-1.2 for most parameters on mixed
+records even with white noise, where all estimators agree (why is not established; the
+error the sandwich's linearisation predicts from the actual noise matched the fitted error
+on the records checked).  The estimator is conservative where a score is nearly a random
+walk: the rest angle's standard error under AR(1) noise came out about 2.5-4x too large
+(rms z 0.22-0.41).  On the README tutorial's two fits (the study's second part, 30 seeds, a
+rest angle at 0) the stiffness, rest angle and friction are covered in 100/90/93 %.
 
 The white-residual formula ``s^2 (J^T J)^-1`` (:func:`white_covariance`) is kept for
 that comparison only (``FitResult.stderr_white``): it is what the sandwich reduces to
