@@ -75,11 +75,12 @@ def frees_of(plant) -> list[Free]:
                                               for f in Free.effect(plant, i)]
 
 
-def record(seed: int, rho: float, excitation: str):
-    """The synthetic record of ``seed`` (excitation and noise), white (``rho`` 0) or AR(1) noise."""
+def record(seed: int, rho: float, excitation: str, hidden=HIDDEN, duration_s: float = DURATION_S):
+    """The synthetic record of ``seed`` (excitation and noise) with ``hidden`` effects, white
+    (``rho`` 0) or AR(1) noise."""
     plant = load_plant(PLANT)
-    t, u = S.excitation(excitation, plant, DURATION_S, 1e-3, seed)
-    return S.synthesize(plant, [AddedEffect(n, dict(v)) for n, v in HIDDEN], t, u, seed=seed,
+    t, u = S.excitation(excitation, plant, duration_s, 1e-3, seed)
+    return S.synthesize(plant, [AddedEffect(n, dict(v)) for n, v in hidden], t, u, seed=seed,
                         noise_ar1=rho, options=SolverOptions(rtol=SYNTH_RTOL, max_step_s=1e-3))
 
 
@@ -133,12 +134,9 @@ def tutorial_one(seed: int) -> dict:
     """The tutorial's two fits (the spring alone, then the friction with ``refit``) on the record of
     ``seed``; the truth, the fitted values and the standard errors by parameter."""
     import gearbench as gb
-    plant = load_plant(PLANT)
-    t, u = S.excitation("steps", plant, TUTORIAL_DURATION_S, 1e-3, seed)
-    data = S.synthesize(plant, [AddedEffect(n, dict(v)) for n, v in TUTORIAL], t, u, seed=seed,
-                        options=SolverOptions(rtol=SYNTH_RTOL, max_step_s=1e-3))
+    data = record(seed, 0.0, "steps", TUTORIAL, TUTORIAL_DURATION_S)
     t0 = time.perf_counter()
-    spring = gb.fit(plant, data, "load_spring", rtol=FIT_RTOL)
+    spring = gb.fit(load_plant(PLANT), data, "load_spring", rtol=FIT_RTOL)
     both = gb.fit(spring.plant, data, "coulomb_friction", options={"location": "load"}, refit=True,
                   rtol=FIT_RTOL)
     hidden = dict(TUTORIAL)
@@ -152,13 +150,9 @@ def tutorial_one(seed: int) -> dict:
 def tutorial_run(seeds: int = TUTORIAL_SEEDS, workers: int | None = None) -> dict:
     """:func:`tutorial_one` over ``seeds`` seeds (1, 2, ...; the shipped record is seed 1), on
     ``workers`` processes."""
-    from gearbench.workers import process_pool, worker_count
-    n = worker_count(workers, seeds)
-    if n == 1:
-        rows = [tutorial_one(s) for s in range(1, seeds + 1)]
-    else:
-        with process_pool(n) as pool:
-            rows = list(pool.map(tutorial_one, range(1, seeds + 1)))
+    from gearbench.identify.executor import Executor
+    with Executor(workers) as here:
+        rows = here.map(tutorial_one, list(range(1, seeds + 1)))
     return {"seeds": seeds, "coverage": coverage(rows, "stderr"), "rms_z": rms_z(rows, "stderr"),
             "fit_wall_s": float(sum(r["wall_s"] for r in rows)), "fits": rows}
 
