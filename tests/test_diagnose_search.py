@@ -171,7 +171,9 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
 def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(monkeypatch):
     """Pairs are fitted ``PAIR_BATCH`` at a time in rank order; once a batch ends with a pair
     within ``AT_NOISE`` of the noise floors the rest are not fitted (and are counted), whatever
-    the number of workers; with none at the floors every pair is fitted."""
+    the number of workers; with none at the floors every pair is fitted.  After a first batch
+    short of the floors, the next rung's screen (``ahead``) runs once, and ends the pairs when
+    it reaches them."""
     from types import SimpleNamespace
     plant = _rig()
     ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
@@ -181,23 +183,65 @@ def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(mo
     jobs = _pair_jobs(None, None, plant, tried, (), ())
     assert len(jobs) > 2 * diagnose_module.PAIR_BATCH
 
-    def run(at_noise: int, workers):
-        batches = []
+    def run(at_noise: int, workers, greedy_at_noise=False):
+        batches, looked = [], []
 
         def fake_map(fn, batch, workers, progress):
             batches.append(len(batch))
             return [diagnose_module.Pair(j[3], j[4], SimpleNamespace(
                 converged=True, error=1.0, weighted_rms=1.0 if jobs.index(j) == at_noise else 5.0)) for j in batch]
+
+        def ahead(batch):
+            looked.append(len(batch))
+            return greedy_at_noise
         monkeypatch.setattr(diagnose_module, "_map", fake_map)
-        fitted, unfitted = diagnose_module._fit_pairs(None, None, plant, tried, (), (), workers,
-                                                      diagnose_module._Tracker(None))
-        return len(fitted), unfitted, batches
+        fitted, unfitted, stopped = diagnose_module._fit_pairs(None, None, plant, tried, (), (), workers,
+                                                               diagnose_module._Tracker(None), ahead)
+        return len(fitted), unfitted, batches, looked, stopped
 
     b = diagnose_module.PAIR_BATCH
     for workers in (1, 2):
-        assert run(b + 1, workers) == (2 * b, len(jobs) - 2 * b, [b, b])
-    assert run(0, 2) == (b, len(jobs) - b, [b])
+        assert run(b + 1, workers) == (2 * b, len(jobs) - 2 * b, [b, b], [b], False)
+    assert run(0, 2) == (b, len(jobs) - b, [b], [], False)  # the first batch reached the floors
     assert run(-1, 2)[:2] == (len(jobs), 0)
+    # the next rung's screen is asked once, with the first batch; at the floors it ends the pairs
+    assert run(-1, 2, greedy_at_noise=True) == (b, len(jobs) - b, [b], [b], True)
+    assert run(-1, 2)[3:] == ([b], False)
+
+
+def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_first_batch_pays(monkeypatch):
+    """A first batch whose pair pays (by ``_accepts`` against the model and the best single) will
+    give the rungs, so the next rung's screen on the best single alone is not made (on EMPS the
+    friction pair of the first batch wins: a screen made beside it cost 61 s in one process);
+    where none pays it is, and at the floors it ends the pairs with no pair taken."""
+    from types import SimpleNamespace
+    plant = _rig()
+    ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
+              "shaft_compliance"]
+    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+                   {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
+    current = SimpleNamespace(bic=1000.0, weighted_rms=50.0)
+    best = SimpleNamespace(result=SimpleNamespace(bic=900.0, weighted_rms=40.0))
+
+    def run(first_pays: bool, greedy_at_noise: bool):
+        looked = []
+
+        def fake_map(fn, batch, workers, progress):
+            return [diagnose_module.Pair(j[3], j[4], SimpleNamespace(
+                converged=True, error=1.0, bic=500.0 if first_pays else 899.0,
+                weighted_rms=20.0 if first_pays else 39.9)) for j in batch]
+
+        def ahead():
+            looked.append(True)
+            return greedy_at_noise
+        monkeypatch.setattr(diagnose_module, "_map", fake_map)
+        pair, unfitted = diagnose_module._better_pair(None, None, plant, current, best, tried, (), (), 2,
+                                                      diagnose_module._Tracker(None), ahead)
+        return pair is not None, unfitted > 0, looked
+
+    assert run(first_pays=True, greedy_at_noise=True) == (True, False, [])
+    assert run(first_pays=False, greedy_at_noise=False) == (False, False, [True])
+    assert run(first_pays=False, greedy_at_noise=True) == (False, True, [True])
 
 
 @pytest.mark.slow
@@ -330,3 +374,27 @@ def test_a_pair_that_gains_nothing_over_its_better_member_gets_no_second_round(m
     two = Tried(Candidate("load_spring", {}), SimpleNamespace(rss=5.0), {"stiffness": 1.0, "rest_angle_deg": 0.0})
     pair = diagnose_module.try_pair(replay, Scorer(replay), rig, one, two)
     assert pair.result.rss == 1.0 and seen == [5.0, 5.0]
+
+
+def test_the_next_rung_screened_during_the_pairs_ends_them_at_the_noise_floors():
+    """The issue's 4 s record: a 3 ms delay on the load angle and Coulomb friction at the motor.
+    The friction alone leaves 41x the noise floors and the delay alone ranks low, so no pair of
+    the first batch has both; the next rung's screen on the friction (made after that batch) finds
+    the delay at the floors, which ends the pairs there, and is the second rung's screen (made
+    once).  Measured 2026-11-27 on the benchmark's record (``bench_ladder.py``'s ``two_4s``):
+    the same ladder and values as with every pair fitted, 2,073 replays instead of 3,409."""
+    from studies.hidden_effects import record as mixed_record
+    plant = _rig()
+    hidden = [AddedEffect("sensor_delay", {"signal": "load_angle_deg", "delay": 0.003}),
+              AddedEffect("coulomb_friction", {"location": "motor", "torque": 0.02})]
+    events = []
+    d = diagnose(plant, Replay(mixed_record(plant, hidden, duration=4.0)), progress=events.append)
+    assert [(s.action, s.effect, s.options) for s in d.ladder] == [
+        ("add", "coulomb_friction", {"location": "motor"}), ("add", "sensor_delay", {"signal": "load_angle_deg"})]
+    for step, (name, value) in zip(d.ladder, (("torque", 0.02), ("delay", 0.003))):
+        assert abs(step.params[name] - value) < 3 * step.stderr[name], (step.params, step.stderr)
+    assert d.stopped == "noise floor"
+    pairs = [e for e in events if e.stage == "pairs" and e.done > 0]
+    assert len(pairs) == diagnose_module.PAIR_BATCH < pairs[0].total, (len(pairs), pairs[0].total)
+    assert [(e.step, e.stage) for e in events if e.done == 0 and e.stage == "candidates"] == [
+        (1, "candidates"), (2, "candidates")]

@@ -28,7 +28,13 @@ those rank alone; from the best of their single fits and a scan of both effects'
 current model and the best single candidate by the criterion that adds an
 effect (``_accepts``); it then takes two rungs, each with its explanation:
 first its member that ranked higher alone (its single fit), then the other
-with the joint fit.  Otherwise the best single is added, as before.
+with the joint fit.  Otherwise the best single is added, as before.  When the
+first ``PAIR_BATCH`` pairs (the best single with its partners) leave more than
+noise and none of them pays, the next rung's screen is made on the best single
+before any more pairs: if its best reaches the noise floors, the greedy ladder
+does in two rungs what a pair could only tie, and the pairs stop there (a delay
+that ranks low alone beside Coulomb friction: 14 pairs fitted for nothing).
+The screen is the next rung's, made once, unless a later pair wins.
 
 A plant file's datasheet values are typically 5-20 % off (``calibration``):
 "a value is off" competes with "an effect is missing" at every rung until it
@@ -333,15 +339,20 @@ def _pair_jobs(replay, scorer, plant, tried, free_plant, refit) -> list[tuple]:
 
 
 def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers,
-               track: _Tracker) -> tuple[list[Pair], int]:
+               track: _Tracker, ahead: Callable[[list[Pair]], bool] = lambda batch: False
+               ) -> tuple[list[Pair], int, bool]:
     """The pairs of :func:`_pair_jobs` fitted jointly, ``PAIR_BATCH`` at a time, until a batch
-    ends with a pair within ``AT_NOISE`` of the noise floors; returns the pairs fitted and how
-    many were left unfitted.  Past the noise floors another pair could only tie on the error,
-    and the pairs come in the order of their members' ranks.  What this gives up: a later pair
-    at the floors with fewer parameters, which the BIC would prefer by ln n per parameter;
-    ``_simplify`` recovers it where it is the simpler form of the same effect (Coulomb for
-    Stribeck friction).  The batches are fixed (not the workers' count), so the answer does
-    not depend on how many ran."""
+    ends with a pair within ``AT_NOISE`` of the noise floors; returns the pairs fitted, how
+    many were left unfitted and whether ``ahead`` stopped them.  Past the noise floors another
+    pair could only tie on the error, and the pairs come in the order of their members' ranks.
+    What this gives up: a later pair at the floors with fewer parameters, which the BIC would
+    prefer by ln n per parameter; ``_simplify`` recovers it where it is the simpler form of the
+    same effect (Coulomb for Stribeck friction).  The batches are fixed (not the workers'
+    count), so the answer does not depend on how many ran.
+
+    ``ahead``: called once with the first batch, when more remain and none of it reached the
+    floors; True stops the pairs there (the greedy ladder reaches the floors in two rungs, see
+    :func:`_diagnose`)."""
     jobs = _pair_jobs(replay, scorer, plant, tried, free_plant, refit)
     each = track.stage("pairs", len(jobs))
     out: list[Pair] = []
@@ -349,7 +360,9 @@ def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers,
         out += _map(_run_pair, jobs[start:start + PAIR_BATCH], workers, each)
         if any(p.ok and p.result.weighted_rms <= AT_NOISE for p in out):
             break
-    return out, len(jobs) - len(out)
+        if start == 0 and len(jobs) > PAIR_BATCH and ahead(out):
+            return out, len(jobs) - len(out), True
+    return out, len(jobs) - len(out), False
 
 
 STOPPED = ("noise floor", "nothing pays", "max steps", "time limit", "interrupted")
@@ -370,7 +383,8 @@ class ProgressEvent:
     done, total: fits finished and to do in this stage; label: the fit just finished, e.g.
     ``"coulomb_friction (load)"``; best: the best fit of this stage so far, its label and
     weighted RMS (x the noise floors), "" before the first; elapsed_s: since the diagnosis
-    started, s."""
+    started, s.  The next step's "candidates" and "joint refit" may come inside a step's "pairs"
+    (the look-ahead, module docstring), and then not again at that step."""
     step: int
     stage: str
     done: int
@@ -627,19 +641,26 @@ def _accepts(current: FitResult, new: FitResult) -> bool:
             and new.weighted_rms < (1.0 - MIN_ERROR_DROP) * current.weighted_rms)
 
 
-def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers, track):
+def _better_pair(replay, scorer, current, current_res, best, tried, free_plant, added, workers, track,
+                 ahead: Callable[[], bool]):
     """The pair of lowest BIC (:func:`_fit_pairs`) when it beats both the current model and the
     best single candidate by :func:`_accepts` (else None: none does, or the best single already
-    explains the record down to its noise, nothing left for a pair to resolve), and how many
-    pairs were left unfitted."""
+    explains the record down to its noise, nothing left for a pair to resolve), and how many pairs
+    were left unfitted.  ``ahead``, the next rung's screen on the best single (True: its best is
+    at the floors), runs when none of the first batch pays, and then a True ends the pairs with
+    None: the greedy ladder reaches the floors, where none of them is."""
     if best.result.weighted_rms <= AT_NOISE or current_res.weighted_rms <= AT_NOISE:
         return None, 0
-    fitted, unfitted = _fit_pairs(replay, scorer, current, tried, free_plant, added, workers, track)
+
+    def pays(p: Pair) -> bool:
+        return p.ok and _accepts(current_res, p.result) and _accepts(best.result, p.result)
+    fitted, unfitted, greedy = _fit_pairs(replay, scorer, current, tried, free_plant, added, workers, track,
+                                          lambda batch: not any(pays(p) for p in batch) and ahead())
     pairs = [p for p in fitted if p.ok]
-    if not pairs:
+    if not pairs or greedy:
         return None, unfitted
     pair = min(pairs, key=lambda p: p.result.bic)
-    return (pair if _accepts(current_res, pair.result) and _accepts(best.result, pair.result) else None), unfitted
+    return (pair if pays(pair) else None), unfitted
 
 
 def _pair_text(pair: Pair, best: Tried, unfitted: int) -> str:
@@ -719,6 +740,16 @@ def _prune(replay, scorer, res: FitResult, first: int, free_plant) -> list[tuple
         out.append((res.plant.effects[i], r, gain))
         res = r
     return out
+
+
+@dataclass
+class _NextRung:
+    """The next rung's screen, made during a rung's pair stage (``_diagnose``'s ``look_ahead``):
+    ``fitted`` is the model with the rung's best candidate added alone and simplified (``notes``),
+    ``tried`` the candidates ranked on it."""
+    fitted: FitResult
+    notes: list
+    tried: list[Tried]
 
 
 @dataclass
@@ -813,6 +844,33 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                                action="remove"))
             current, current_res = without.plant, without
 
+    def screen(model: Plant, res: FitResult) -> list[Tried]:
+        """A rung's candidates ranked: each fitted with the model's effects and calibrated values held
+        (cheap), then the best ``JOINT_TOP`` refitted with them."""
+        added = tuple(range(len(plant.effects), len(model.effects)))
+        cands = candidates(model, replay, only)
+        tried = _rank(_fit_all(replay, scorer, model, cands, free_plant, (), workers,
+                               track.stage("candidates", len(cands)), res.rss))
+        if added:
+            top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
+            joint = _fit_all(replay, scorer, model, top, refitted, added, workers,
+                             track.stage("joint refit", len(top)))
+            tried = _rank(joint + tried[len(top):])
+        return tried
+
+    def look_ahead(best: Tried, added: tuple[int, ...]) -> bool:
+        """The next rung's screen on the model with ``best`` alone (simplified), kept for that rung in
+        ``next_rung``; True when its best pays and reaches the noise floors (``_better_pair``)."""
+        nonlocal next_rung
+        fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
+        track.step += 1
+        try:
+            next_rung = _NextRung(fitted, notes, screen(fitted.plant, fitted))
+        finally:
+            track.step -= 1
+        nxt = next_rung.tried[0] if next_rung.tried and next_rung.tried[0].ok else None
+        return nxt is not None and nxt.result.weighted_rms <= AT_NOISE and _accepts(fitted, nxt.result)
+
     def _result() -> Diagnosis:
         verdict = ladder[rungs[0]].effect if rungs else None
         tests = {} if stopped == "interrupted" else _residual_tests(replay, current, current_res)
@@ -824,6 +882,7 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                          cal.report(current, current_res.stderr, cal_step is not None), cal_step, stopped,
                          _noise(replay, scorer), tests, not_tried(plant, replay, only))
 
+    next_rung: _NextRung | None = None
     step = 0
     try:
         while step < max_steps:
@@ -842,15 +901,9 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                 stopped = "time limit"
                 break
             added = tuple(range(len(plant.effects), len(current.effects)))
-            # screened with the calibrated values held (cheap); the best few refitted with them below
-            cands = candidates(current, replay, only)
-            tried = _rank(_fit_all(replay, scorer, current, cands, free_plant, (), workers,
-                                   track.stage("candidates", len(cands)), current_res.rss))
-            if added:
-                top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:JOINT_TOP] if t.ok]
-                joint = _fit_all(replay, scorer, current, top, refitted, added, workers,
-                                 track.stage("joint refit", len(top)))
-                tried = _rank(joint + tried[len(top):])
+            reuse = next_rung is not None and next_rung.fitted.plant is current
+            tried = next_rung.tried if reuse else screen(current, current_res)
+            next_rung = None
             if not first_tried:
                 first_tried = tried
             best = tried[0] if tried and tried[0].ok else None
@@ -888,11 +941,13 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
                               f"{unit}){calibrated} and {gain}{NOT_IN_LIBRARY}")
                 break
             pair, unfitted = (_better_pair(replay, scorer, current, current_res, best, tried, refitted, added,
-                                           workers, track) if len(ladder) + 2 <= max_steps else (None, 0))
+                                           workers, track, lambda: look_ahead(best, added))
+                              if len(ladder) + 2 <= max_steps else (None, 0))
             track.stage("simplify")
             if pair is None:
                 text = explain(replay, scorer, current_res, best, tried)
-                fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
+                fitted, notes = ((next_rung.fitted, next_rung.notes) if next_rung is not None else
+                                 _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted))
             else:
                 first, second = pair.first, pair.as_second()
                 ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,
