@@ -1,6 +1,7 @@
 """The fit's Jacobian: finite differences, kept up to date by Broyden's secant updates
 (``gearbench.identify.fit.SecantJacobian``): the same optimum as finite differences at every step,
-for fewer residual evaluations; fresh where the update is not to be trusted."""
+for fewer residual evaluations; fresh where the update is not to be trusted; and a stop on the step
+size after updates goes on (``secant_least_squares``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,7 +9,7 @@ import pytest
 from scipy.optimize import least_squares
 from scipy.optimize._numdiff import approx_derivative
 
-from gearbench.identify.fit import FD_STEP, POOR_STEPS, SecantJacobian, fd_step
+from gearbench.identify.fit import FD_STEP, POOR_STEPS, SecantJacobian, fd_step, secant_least_squares
 
 T = np.linspace(0.0, 4.0, 200)
 TRUE = np.array([2.0, 1.3, 0.4, 3.0])
@@ -122,3 +123,29 @@ def test_the_difference_step_does_not_shrink_with_the_value(z):
     for central in (False, True):
         secant = SecantJacobian(rippled, (np.array([-np.inf]), np.array([np.inf])), central)
         np.testing.assert_allclose(secant.fresh(x, rippled(x))[:, 0], [3.0, -1.0], atol=1e-5)
+
+
+def beale(z):
+    return np.array([1.5 - z[0] * (1 - z[1]), 2.25 - z[0] * (1 - z[1] ** 2), 2.625 - z[0] * (1 - z[1] ** 3)])
+
+
+def rosenbrock(z):
+    return np.array([10 * (z[1] - z[0] ** 2), 1 - z[0]])
+
+
+@pytest.mark.parametrize("fun, start, optimum", [(beale, [1.0, 1.0], [3.0, 0.5]),
+                                                 (rosenbrock, [-3.0, -4.0], [1.0, 1.0])],
+                         ids=["beale", "rosenbrock from far"])
+def test_a_stop_on_the_step_size_after_secant_updates_goes_on_to_the_optimum(fun, start, optimum):
+    """Two test functions (More, Garbow & Hillstrom 1981) whose zero residual least squares with
+    finite differences reaches: with the secant updates alone the trust region shrinks short of it
+    and the fit stops on its step size (Beale's at a cost of 2.2, Rosenbrock's from (-3, -4) at
+    3300); going on from there with a fresh Jacobian and trust region reaches it."""
+    bounds = (np.full(2, -np.inf), np.full(2, np.inf))
+    secant = SecantJacobian(fun, bounds, central=False)
+    alone = least_squares(secant.residual, np.array(start), jac=secant, bounds=bounds, method="trf",
+                          ftol=1e-6, xtol=1e-6, max_nfev=400)
+    assert alone.status == 3 and secant.updates and alone.cost > 1.0  # the stop this is about
+    res = secant_least_squares(fun, np.array(start), bounds, max_nfev=400)
+    assert res.cost < 1e-12 and np.allclose(res.x, optimum, atol=1e-5), (res.cost, res.x)
+    assert least_squares(fun, np.array(start), method="trf", ftol=1e-6, xtol=1e-6).cost < 1e-12

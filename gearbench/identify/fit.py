@@ -284,8 +284,8 @@ class SecantJacobian:
     ``central``) at the start, after a step the
     trust region rejected at least once, and after :data:`POOR_STEPS` poorly foretold steps in a
     row; :meth:`fresh` gives the finite-difference one at the end, for the standard errors, and
-    :func:`fit` goes on with a fresh one (and a fresh trust region) from a stop on the step size
-    made after updates.  Why: a finite-difference Jacobian costs a replay per parameter, and they
+    :func:`secant_least_squares` goes on with a fresh one (and a fresh trust region) from a stop on
+    the step size made after updates.  Why: a finite-difference Jacobian costs a replay per parameter, and they
     were more than half of a diagnosis's replays (issue 18's 4 s record, in one process with one
     worker: 4,270 replays before, 3,150 with the updates; the same ladder and values).
 
@@ -342,6 +342,31 @@ class SecantJacobian:
             self.updates += 1
         self.z, self.r, self.trials = z, r, []
         return self.J
+
+
+def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 200):
+    """``scipy.optimize.least_squares`` of the residual ``fun`` from ``z`` within ``bounds`` (TRF,
+    ``ftol = xtol = 1e-6``, at most ``max_nfev`` residuals in all) with :class:`SecantJacobian` s.
+    A stop on the step size alone (status 3) after secant updates may be a trust region their
+    poorer foresight shrank: while such a stop has lowered the cost by more than
+    :data:`RESTART_GAIN`, it goes on from there with a fresh Jacobian and trust region (the hidden
+    shaft compliance of ``studies.hidden_effects`` stopped so at 125.6 N m/rad and 3.19x the noise
+    floors; going on, 19.6 for 20 at 1.3x).  The result's ``jac`` is a finite-difference one at
+    its end (for the standard errors), its ``nfev`` counts every round's residuals."""
+    used = 0
+    while True:
+        secant = SecantJacobian(fun, bounds, central)
+        res = least_squares(secant.residual, z, bounds=bounds, x_scale=1.0, jac=secant,
+                            max_nfev=max_nfev - used, method="trf", ftol=1e-6, xtol=1e-6)
+        used += res.nfev
+        gained = 2.0 * res.cost < (1.0 - RESTART_GAIN) * secant.start_rss
+        if res.status != 3 or not secant.updates or not gained or used >= max_nfev:
+            break
+        z = res.x
+    if secant.updated:
+        res.jac = secant.fresh(res.x, res.fun)
+    res.nfev = used
+    return res
 
 
 FD_STEP = 1e-3
@@ -429,24 +454,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
         return replay.reset_at, float(w @ w)
 
     def least(z):
-        budget, used = max_nfev or 40 * (len(frees) + 1), 0
-        while True:
-            secant = SecantJacobian(residual, (lo, hi), central)
-            res = least_squares(secant.residual, z, bounds=(lo, hi), x_scale=1.0, jac=secant,
-                                max_nfev=budget - used, method="trf", ftol=1e-6, xtol=1e-6)
-            used += res.nfev
-            gained = 2.0 * res.cost < (1.0 - RESTART_GAIN) * secant.start_rss
-            # a stop on the step size alone (status 3) after secant updates may be a trust region
-            # their poorer foresight shrank: go on from there with a fresh Jacobian and trust region
-            # (the hidden shaft compliance of studies.hidden_effects stopped so at 125.6 N m/rad
-            # and 3.19x the noise floors; going on, 19.6 for 20 at 1.3x)
-            if res.status != 3 or not secant.updates or not gained or used >= budget:
-                break
-            z = res.x
-        if secant.updated:
-            res.jac = secant.fresh(res.x, res.fun)
-        res.nfev = used
-        return res
+        return secant_least_squares(residual, z, (lo, hi), central, max_nfev or 40 * (len(frees) + 1))
 
     nfev, kept, rounds = 0, None, 0
     try:
