@@ -168,6 +168,14 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
     assert (0, 7) in order and order.index((0, 7)) < order.index((1, 2))
 
 
+def _six_ranked(plant) -> list[Tried]:
+    """Six effects' fits, ranked (BIC 1, 2, ...), for the pair stage's tests: no replay behind them."""
+    ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
+              "shaft_compliance"]
+    return [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+                  {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
+
+
 def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(monkeypatch):
     """Pairs are fitted ``PAIR_BATCH`` at a time in rank order; once a batch ends with a pair
     within ``AT_NOISE`` of the noise floors the rest are not fitted (and are counted), whatever
@@ -176,10 +184,7 @@ def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(mo
     it reaches them."""
     from types import SimpleNamespace
     plant = _rig()
-    ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
-              "shaft_compliance"]
-    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
-                   {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
+    tried = _six_ranked(plant)
     jobs = _pair_jobs(None, None, plant, tried, (), ())
     assert len(jobs) > 2 * diagnose_module.PAIR_BATCH
 
@@ -216,10 +221,7 @@ def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_fir
     where none pays it is, and at the floors it ends the pairs with no pair taken."""
     from types import SimpleNamespace
     plant = _rig()
-    ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
-              "shaft_compliance"]
-    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
-                   {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
+    tried = _six_ranked(plant)
     current = SimpleNamespace(bic=1000.0, weighted_rms=50.0)
     best = SimpleNamespace(result=SimpleNamespace(bic=900.0, weighted_rms=40.0))
 

@@ -285,8 +285,8 @@ class SecantJacobian:
     trust region rejected at least once, and after :data:`POOR_STEPS` poorly foretold steps in a
     row; :meth:`fresh` gives the finite-difference one at the end, for the standard errors, and
     :func:`secant_least_squares` goes on with a fresh one (and a fresh trust region) from a stop on
-    the step size made after updates.  Why: a finite-difference Jacobian costs a replay per parameter, and they
-    were more than half of a diagnosis's replays (issue 18's 4 s record, in one process with one
+    the step size made after updates.  Why: a finite-difference Jacobian costs a replay per
+    parameter, and they were more than half of a diagnosis's replays (issue 18's 4 s record, in one process with one
     worker: 4,270 replays before, 3,150 with the updates; the same ladder and values).
 
     ``residual`` is the function to give ``least_squares``: it keeps the trials since the last
@@ -453,15 +453,12 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
             return (), math.inf
         return replay.reset_at, float(w @ w)
 
-    def least(z):
-        return secant_least_squares(residual, z, (lo, hi), central, max_nfev or 40 * (len(frees) + 1))
-
     nfev, kept, rounds = 0, None, 0
     try:
         seams, _ = settle(z0)
         for rounds in range(max(restarts, 1) + 1):
             with replay.resets_frozen(seams):
-                res = least(z0)
+                res = secant_least_squares(residual, z0, (lo, hi), central, max_nfev or 40 * (len(frees) + 1))
             after, rss_after = settle(res.x)
             nfev += res.nfev + 1
             if kept is not None and (res.status <= 0 or rss_after > kept[1]):
