@@ -339,8 +339,7 @@ def _pair_jobs(replay, scorer, plant, tried, free_plant, refit) -> list[tuple]:
 
 
 def _fit_pairs(replay, scorer, plant, tried, free_plant, refit, workers,
-               track: _Tracker, ahead: Callable[[list[Pair]], bool] = lambda batch: False
-               ) -> tuple[list[Pair], int, bool]:
+               track: _Tracker, ahead: Callable[[list[Pair]], bool]) -> tuple[list[Pair], int, bool]:
     """The pairs of :func:`_pair_jobs` fitted jointly, ``PAIR_BATCH`` at a time, until a batch
     ends with a pair within ``AT_NOISE`` of the noise floors; returns the pairs fitted, how
     many were left unfitted and whether ``ahead`` stopped them.  Past the noise floors another
@@ -858,11 +857,15 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
             tried = _rank(joint + tried[len(top):])
         return tried
 
+    def alone(best: Tried, added: tuple[int, ...]) -> tuple[FitResult, list]:
+        """The model with ``best`` added alone, simplified (``_simplify``: the result and its notes)."""
+        return _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
+
     def look_ahead(best: Tried, added: tuple[int, ...]) -> bool:
         """The next rung's screen on the model with ``best`` alone (simplified), kept for that rung in
         ``next_rung``; True when its best pays and reaches the noise floors (``_better_pair``)."""
         nonlocal next_rung
-        fitted, notes = _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted)
+        fitted, notes = alone(best, added)
         track.step += 1
         try:
             next_rung = _NextRung(fitted, notes, screen(fitted.plant, fitted))
@@ -946,8 +949,7 @@ def _diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...], max_ste
             track.stage("simplify")
             if pair is None:
                 text = explain(replay, scorer, current_res, best, tried)
-                fitted, notes = ((next_rung.fitted, next_rung.notes) if next_rung is not None else
-                                 _simplify(replay, scorer, best.result, added + (len(current.effects),), refitted))
+                fitted, notes = (next_rung.fitted, next_rung.notes) if next_rung is not None else alone(best, added)
             else:
                 first, second = pair.first, pair.as_second()
                 ladder.append(Step(first.candidate.name, first.candidate.options, first.params, first.stderr,

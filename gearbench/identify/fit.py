@@ -286,8 +286,9 @@ class SecantJacobian:
     row; :meth:`fresh` gives the finite-difference one at the end, for the standard errors, and
     :func:`secant_least_squares` goes on with a fresh one (and a fresh trust region) from a stop on
     the step size made after updates.  Why: a finite-difference Jacobian costs a replay per
-    parameter, and they were more than half of a diagnosis's replays (issue 18's 4 s record, in one process with one
-    worker: 4,270 replays before, 3,150 with the updates; the same ladder and values).
+    parameter, and they were more than half of a diagnosis's replays (issue 18's 4 s record, in
+    one process with one worker: 4,270 replays before, 3,150 with the updates; the same ladder
+    and values).
 
     ``residual`` is the function to give ``least_squares``: it keeps the trials since the last
     Jacobian, so a call finds the residual at the accepted point and knows whether the step was
