@@ -176,7 +176,7 @@ def test_an_effect_that_no_longer_pays_is_taken_out():
     removed = _prune(replay, scorer, res, 0, ())
     assert [(e.name, e.values["location"]) for e, _, _ in removed] == [("coulomb_friction", "load")]
     gone, without, gain = removed[0]
-    assert not _accepts(without, res) and gain < 10.0
+    assert not _accepts(scorer, without, res) and gain < 10.0
     assert [e.name for e in without.plant.effects] == ["viscous_friction"]
     assert without.plant.effects[0].values["coefficient"] == pytest.approx(0.05, rel=0.05)
     assert without.error <= 1.5 * scorer.noise_floor

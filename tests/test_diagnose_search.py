@@ -222,8 +222,8 @@ def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_fir
     from types import SimpleNamespace
     plant = _rig()
     tried = _six_ranked(plant)
-    current = SimpleNamespace(bic=1000.0, weighted_rms=50.0)
-    best = SimpleNamespace(result=SimpleNamespace(bic=900.0, weighted_rms=40.0))
+    current = SimpleNamespace(bic=1000.0, weighted_rms=50.0, seams=())
+    best = SimpleNamespace(result=SimpleNamespace(bic=900.0, weighted_rms=40.0, seams=()))
 
     def run(first_pays: bool, greedy_at_noise: bool):
         looked = []
@@ -231,7 +231,7 @@ def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_fir
         def fake_map(fn, batch, workers, progress):
             return [diagnose_module.Pair(j[3], j[4], SimpleNamespace(
                 converged=True, error=1.0, bic=500.0 if first_pays else 899.0,
-                weighted_rms=20.0 if first_pays else 39.9)) for j in batch]
+                weighted_rms=20.0 if first_pays else 39.9, seams=())) for j in batch]
 
         def ahead():
             looked.append(True)

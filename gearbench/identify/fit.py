@@ -247,6 +247,8 @@ class FitResult:
     correlation: dict = field(default_factory=dict)  # name -> name -> correlation of the two estimates
     units: dict = field(default_factory=dict)  # name -> unit of the value and its standard error
     stderr_white: dict = field(default_factory=dict)  # the white-residual formula's, for comparison only
+    seams: tuple = ()  # the window seams (first samples) at which its replay moved the angles (Replay.reset_at)
+    rescored: dict = field(default_factory=dict, repr=False, compare=False)  # seams -> the plant scored there
 
     @property
     def weighted_rms(self) -> float:
@@ -264,7 +266,7 @@ def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0) -> FitRes
     sim = replay.run(plant)
     w = scorer.weighted(sim)
     return FitResult(plant, {}, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim,
-                     scorer.per_signal(sim))
+                     scorer.per_signal(sim), seams=replay.reset_at)
 
 
 POOR_STEP = 0.1
@@ -500,4 +502,4 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     values = {f.name: param_value(fitted, f) for f in frees}
     return FitResult(fitted if converged else plant, values, stderr, scorer.error(sim), rss, n, k,
                      converged, msg, nfev, sim, scorer.per_signal(sim), correlation=correlation,
-                     stderr_white=white, units={f.name: f.unit for f in frees})
+                     stderr_white=white, units={f.name: f.unit for f in frees}, seams=replay.reset_at)
