@@ -221,3 +221,28 @@ def test_a_fit_holds_the_replays_resets_while_it_moves():
     assert np.sqrt(np.mean((meas - drifting) ** 2)) > 1.2 * np.sqrt(np.mean((meas - ruled) ** 2))
     replay.run(plant)
     assert replay.reset_at == seams
+
+
+def test_a_calibration_starts_again_from_the_best_points_of_its_tolerance_box():
+    """``calibration.starts``: the best ``search.LOCAL_STARTS`` of a Sobol scan inside the box,
+    best first, the same on every call; values past ``calibrated`` stay where the plant has them.
+    From p04's datasheet errors the best point is nearer the truth than the file's values."""
+    from gearbench.identify import search
+    from gearbench.identify.fit import get_value, set_values
+    truth = load_plant(RIG)
+    m = truth.motor
+    file = replace(truth, motor=replace(m, resistance=1.10 * m.resistance, torque_constant=0.95 * m.torque_constant,
+                                        back_emf_constant=0.95 * m.back_emf_constant),
+                   load=replace(truth.load, inertia=0.92 * truth.load.inertia))
+    replay = Replay(_record(truth, seconds=2.0))
+    scorer = Scorer(replay)
+    frees = calibration.plan(file, replay, scorer).frees
+    assert frees[-1].name == "load.damping"
+    got = calibration.starts(replay, scorer, file, frees, len(frees) - 1)
+    assert len(got) == search.LOCAL_STARTS
+    assert all(f.low <= x[j] <= f.high for x in got for j, f in enumerate(frees))
+    assert all(x[-1] == get_value(file, frees[-1]) for x in got)
+    rss = [float(w @ w) for w in (scorer.weighted(replay.run(set_values(file, frees, x))) for x in got)]
+    at_file = scorer.weighted(replay.run(file))
+    assert rss[0] <= rss[1] and rss[0] < float(at_file @ at_file)
+    assert all((a == b).all() for a, b in zip(got, calibration.starts(replay, scorer, file, frees, len(frees) - 1)))

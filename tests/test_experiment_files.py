@@ -118,6 +118,8 @@ BAD_PLANTS = {
     "negative damping": ({"gear.mesh_damping": -1.0}, ["gear.mesh_damping", ">= 0", "N m s/rad"]),
     "non-finite": ({"motor.max_voltage": float("inf")}, ["motor.max_voltage", "in V", "finite"]),
     "nan": ({"gear.backlash_deg": float("nan")}, ["gear.backlash_deg", "deg"]),
+    "a clearance past the backlash effect's bound": ({"gear.backlash_deg": 1e308},
+                                                     ["gear.backlash_deg must be a number >= 0 and <= 90 in deg"]),
     "bad contact law": ({"gear.contact_law": "hertz"}, ["gear.contact_law", "dubowsky, elasto_backlash"]),
     "section not mapping": ({"load": [1, 2]}, ["load must be a mapping", "inertia"]),
     "unknown effect": ({"effects": [{"type": "coulomb_frictoin", "torque": 0.1}]},

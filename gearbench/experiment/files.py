@@ -225,7 +225,9 @@ DRIVEN_MOTOR = {
 }
 GEAR = {
     "ratio": Number("motor turns per output turn", **POS),
-    "backlash_deg": Number("deg", **NONNEG),
+    # at most the backlash effect's own bound: the state scales square the half clearance (rad), and
+    # a clearance of 1e308 deg overflowed them to inf (found by tests/test_fuzz.py's plant files)
+    "backlash_deg": Number("deg", low=0.0, low_strict=False, high=90.0, high_strict=False),
     "mesh_stiffness": Number("N m/rad", **POS),
     "mesh_damping": Number("N m s/rad", **NONNEG),
     "contact_law": Choice(CONTACT_LAWS, required=False, default="dubowsky"),

@@ -45,10 +45,12 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import qmc
 
 from ..plant.components import FITTABLE, Plant
-from .fit import Free, Scorer, param_value, set_values
+from .fit import Free, Scorer, get_value, param_value, set_values
 from .replay import Replay, ReplayError
+from . import search
 from .uncertainty import central_jacobian, correlation, standard_errors
 
 DATASHEET_TOLERANCE_PCT = {
@@ -188,3 +190,22 @@ def _bound(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     except np.linalg.LinAlgError:
         return np.full(k, math.nan), np.full((k, k), math.nan)
     return standard_errors(cov), correlation(cov)
+
+
+def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], calibrated: int,
+           n: int | None = None) -> list[np.ndarray]:
+    """Where a calibration's local fit starts again when the one from the current values
+    stopped short of the noise: the ``search.LOCAL_STARTS`` best of ``n`` (default
+    ``search.point_count``) scrambled Sobol points spread uniformly over the tolerance box of
+    the first ``calibrated`` of ``frees`` (the rest held at ``plant``'s values), best first.
+
+    Why: stick-slip makes the residual jump between branches as the values move (whether the
+    load sticks at a reversal), and a local fit from a datasheet's values can end in the wrong
+    one (module docstring of ``tests/test_datasheet.py``)."""
+    x0 = np.array([get_value(plant, f) for f in frees])
+    box = frees[:calibrated]
+    n = search.point_count(len(box)) if n is None else n
+    q = qmc.Sobol(len(box), scramble=True, rng=np.random.default_rng(search.SEED)).random(n)
+    points = np.tile(x0, (n, 1))
+    points[:, :calibrated] = [f.low for f in box] + q * np.array([f.high - f.low for f in box])
+    return [x for _, x in search.scan(replay, scorer, plant, frees, points)[:search.LOCAL_STARTS]]
