@@ -116,14 +116,20 @@ def test_a_zero_tolerance_holds_a_value_out_of_calibration():
     assert "motor.damping" not in {f.name for f in calibration.plan(plant, replay, Scorer(replay)).frees}
 
 
+def _p04_values(truth):
+    """``truth`` with practice case p04's datasheet errors: resistance +10 %, motor constant -5 %,
+    load inertia -8 %."""
+    m = truth.motor
+    return replace(truth, motor=replace(m, resistance=1.10 * m.resistance, torque_constant=0.95 * m.torque_constant,
+                                        back_emf_constant=0.95 * m.back_emf_constant),
+                   load=replace(truth.load, inertia=0.92 * truth.load.inertia))
+
+
 def test_datasheet_values_off_come_back_to_the_truth():
     """Resistance +10 %, motor constant -5 %, load inertia -8 % in the file (practice case p04's
     errors, on the bench rig); the record made at rtol 1e-9, the fit at 1e-6."""
     truth = load_plant(RIG)
-    m = truth.motor
-    file = replace(truth, motor=replace(m, resistance=1.10 * m.resistance, torque_constant=0.95 * m.torque_constant,
-                                        back_emf_constant=0.95 * m.back_emf_constant),
-                   load=replace(truth.load, inertia=0.92 * truth.load.inertia))
+    m, file = truth.motor, _p04_values(truth)
     replay = Replay(_record(truth, seconds=4.0))
     scorer = Scorer(replay)
     p = calibration.plan(file, replay, scorer)
@@ -230,10 +236,7 @@ def test_a_calibration_starts_again_from_the_best_points_of_its_tolerance_box():
     from gearbench.identify import search
     from gearbench.identify.fit import get_value, set_values
     truth = load_plant(RIG)
-    m = truth.motor
-    file = replace(truth, motor=replace(m, resistance=1.10 * m.resistance, torque_constant=0.95 * m.torque_constant,
-                                        back_emf_constant=0.95 * m.back_emf_constant),
-                   load=replace(truth.load, inertia=0.92 * truth.load.inertia))
+    file = _p04_values(truth)
     replay = Replay(_record(truth, seconds=2.0))
     scorer = Scorer(replay)
     frees = calibration.plan(file, replay, scorer).frees

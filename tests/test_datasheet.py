@@ -126,6 +126,28 @@ def test_fit_calibrate_brings_back_the_effect_and_the_datasheet_values():
     assert "fitted, standard error" in line and "ohm" in line, line  # the plant fit -o writes
 
 
+def test_fit_calibrate_on_8_s():
+    """``fit --calibrate`` on 8 s of that record: the load angle ends at 1.01x its noise, the
+    friction 0.4958 N m for 0.5 (8 s on 2 cores, 2026-11-28; the README had 3.2x from
+    2026-11-27, before the fits' later changes).  Not at the truth: the resistance 3.034 ohm (3.0)
+    and the load inertia 0.005956 kg m^2 (0.006) sit 5-6 standard errors off, the load damping at
+    its bound, 0.0024 for 0.003; fitted again from the best points of a scan of the tolerance box,
+    as diagnose's calibration is, it ends at the same values."""
+    import gearbench as gb
+    truth = load_plant(RIG)
+    hidden = AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})
+    t, u = excitation("mixed", truth, duration_s=8.0, seed=11)
+    m = synthesize(truth, [hidden], t, u, noise={s: NOISE[s] for s in default_signals(truth)}, seed=11,
+                   options=TIGHT)
+    f = gb.fit(datasheet(truth, OFF["p04-like"]), m, "coulomb_friction", options={"location": "load"},
+               calibrate=True)
+    assert f.error_after <= 1.2 * NOISE["load_angle_deg"], f.error_after
+    assert f.values["effects[0].torque"] == pytest.approx(0.5, rel=0.02)
+    for path in ("motor.resistance", "load.inertia"):
+        section, key = path.split(".")
+        assert f.values[path] == pytest.approx(getattr(getattr(truth, section), key), rel=0.02), (path, f.values)
+
+
 @pytest.mark.slow
 def test_datasheet_values_off_and_an_effect_missing_on_8_s():
     """``test_datasheet_values_off_and_an_effect_missing`` on 8 s of the same excitation.  The

@@ -43,7 +43,10 @@ wins once.  Calibrating them from the start would let them take up part of
 whatever is missing and run to their bounds (the bench rig with a spring and
 Coulomb friction hidden: the ladder then took friction at the motor and a shaft
 compliance, each taken out later); as a rival step, the calibration comes when
-it explains more than the best effect, or after the effects that do.
+it explains more than the best effect, or after the effects that do.  Stick-slip
+makes its residual jump between branches, so a calibration that pays but stops
+short of the noise floors is fitted again from the best points of a scan of its
+tolerance box (``_calibrate``).
 
 The ladder repeats: add the verdict with its fitted parameters, diagnose
 again, until nothing more pays.  It steps both ways: after each rung every
@@ -741,8 +744,9 @@ def _calibrate(replay, scorer, model: Plant, res: FitResult, free_plant, cal_fre
     pays (:func:`_accepts` against ``res``) but leaves more than ``AT_NOISE`` x the noise floors,
     also from the best points of a scan of the tolerance box (``calibration.starts``), the best
     fit kept.  On 8 s of the bench rig with p04's datasheet errors and Coulomb friction hidden at
-    the load, the fit from the file's values ended at 25.9x the noise floors (load inertia
-    0.00545 kg m^2 for 0.006), from the scan's best points at 2.07x; the truth gives 0.99x."""
+    the load, fitted with the friction: from the file's values 25.9x the noise floors (load
+    inertia 0.00545 kg m^2 for 0.006), from the scan's best points 2.07x, the truth 0.99x; in the
+    ladder, after a pair with a load spring, 0.988x (``tests/test_datasheet.py``)."""
     cal = _refit(replay, scorer, model, tuple(free_plant) + tuple(cal_frees), added, central=True,
                  restarts=CALIBRATION_RESTARTS)
     if cal is None or cal.weighted_rms <= AT_NOISE or not _accepts(scorer, res, cal):
