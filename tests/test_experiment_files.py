@@ -1,6 +1,7 @@
 """Plant and experiment files: valid files load, every kind of bad input is named."""
 import copy
 import pickle
+from pathlib import Path
 
 import pytest
 import yaml
@@ -342,3 +343,17 @@ def test_shift_deg_is_checked_against_the_clearance_of_a_backlash_effect(tmp_pat
     else:
         msg = error_of(load_experiment, path)
         assert "shift_deg must lie between 0 and the clearance" in msg and "= 2 deg, got 2.5" in msg
+
+
+def test_a_compensator_whose_gain_overflows_is_named(tmp_path):
+    """The feedforward compensators pack gains from the plant (Kff = N (ke + R b/kt)): a resistance
+    of 1e308 ohm is a valid number but makes them infinite (found by tests/test_fuzz.py on
+    experiments/compensators.yaml); the controller and the compensators are named before solving."""
+    root = Path(__file__).resolve().parents[1] / "experiments"
+    plant = yaml.safe_load((root / "plants" / "thesis_gear.yaml").read_text())
+    plant["motor"]["resistance"] = 1e308
+    exp = yaml.safe_load((root / "compensators.yaml").read_text())
+    exp["plant"] = plant
+    msg = error_of(load_experiment, write(tmp_path, "compensators.yaml", exp))
+    assert "controllers[0] with compensator direction_feedforward, damped_feedforward: its values are too extreme" \
+        in msg, msg

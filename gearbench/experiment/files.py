@@ -822,9 +822,14 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
             problems.append(f"shift_deg must lie between 0 and the clearance (gear.backlash_deg, or a "
                             f"backlash effect's) = {resolved:g} deg, got {shift_deg!r}")
         for i, ctrl in enumerate(controllers):
-            if ctrl is not None and not _computable(pack(plant, ctrl)):
-                problems.append(f"{index('controllers', i)}: its values are too extreme to compute with: a "
-                                "gain comes out infinite in SI units (V/rad, 1/s, s); look for a value near 1e308")
+            # each compensator packs its own gains from the plant (Kff = N (ke + R b/kt), ...)
+            extreme = [c for c in compensators or (ctrl.compensator if ctrl else None,)
+                       if ctrl is not None and not _computable(pack(plant, replace(ctrl, compensator=c)))]
+            if extreme:
+                with_comp = f" with compensator {', '.join(extreme)}" if compensators else ""
+                problems.append(f"{index('controllers', i)}{with_comp}: its values are too extreme to compute "
+                                "with: a gain comes out infinite in SI units (V/rad, 1/s, s, V s/rad); look for a "
+                                "value near 1e308 in it or the plant")
         d0 = top.get("initial_delta_deg", 0.0)
         if abs(d0) > clearance / 2.0:
             problems.append(f"initial_delta_deg must lie within +-{clearance / 2.0:g} deg (half of "
