@@ -822,9 +822,11 @@ def _experiment(raw: Any, base_dir: Path, label: str, default_name: str) -> tupl
             problems.append(f"shift_deg must lie between 0 and the clearance (gear.backlash_deg, or a "
                             f"backlash effect's) = {resolved:g} deg, got {shift_deg!r}")
         for i, ctrl in enumerate(controllers):
+            if ctrl is None:
+                continue
             # each compensator packs its own gains from the plant (Kff = N (ke + R b/kt), ...)
-            extreme = [c for c in compensators or (ctrl.compensator if ctrl else None,)
-                       if ctrl is not None and not _computable(pack(plant, replace(ctrl, compensator=c)))]
+            extreme = [c for c in compensators or (ctrl.compensator,)
+                       if not _computable(pack(plant, replace(ctrl, compensator=c)))]
             if extreme:
                 with_comp = f" with compensator {', '.join(extreme)}" if compensators else ""
                 problems.append(f"{index('controllers', i)}{with_comp}: its values are too extreme to compute "
