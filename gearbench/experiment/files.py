@@ -227,7 +227,8 @@ GEAR = {
     "ratio": Number("motor turns per output turn", **POS),
     # at most the backlash effect's own bound: the state scales square the half clearance (rad), and
     # a clearance of 1e308 deg overflowed them to inf (found by tests/test_fuzz.py's plant files)
-    "backlash_deg": Number("deg", low=0.0, low_strict=False, high=90.0, high_strict=False),
+    "backlash_deg": Number("deg", low=0.0, low_strict=False, high_strict=False,
+                           high=next(q.high for q in EFFECTS["backlash"].params if q.name == "backlash_deg")),
     "mesh_stiffness": Number("N m/rad", **POS),
     "mesh_damping": Number("N m s/rad", **NONNEG),
     "contact_law": Choice(CONTACT_LAWS, required=False, default="dubowsky"),

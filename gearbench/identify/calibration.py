@@ -45,7 +45,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import qmc
 
 from ..plant.components import FITTABLE, Plant
 from .fit import Free, Scorer, get_value, param_value, set_values
@@ -202,10 +201,7 @@ def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], cali
     Why: stick-slip makes the residual jump between branches as the values move (whether the
     load sticks at a reversal), and a local fit from a datasheet's values can end in the wrong
     one (module docstring of ``tests/test_datasheet.py``)."""
-    x0 = np.array([get_value(plant, f) for f in frees])
-    box = frees[:calibrated]
-    n = search.point_count(len(box)) if n is None else n
-    q = qmc.Sobol(len(box), scramble=True, rng=np.random.default_rng(search.SEED)).random(n)
-    points = np.tile(x0, (n, 1))
-    points[:, :calibrated] = [f.low for f in box] + q * np.array([f.high - f.low for f in box])
+    low, high = (np.array([getattr(f, side) for f in frees[:calibrated]]) for side in ("low", "high"))
+    points = search.around([get_value(plant, f) for f in frees],
+                           low + search.unit_points(calibrated, n) * (high - low))
     return [x for _, x in search.scan(replay, scorer, plant, frees, points)[:search.LOCAL_STARTS]]

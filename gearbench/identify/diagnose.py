@@ -204,9 +204,7 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
         values.update(est or {})
         with_it = plant.with_effects(AddedEffect(cand.name, values))
         mine = Free.effect(with_it, len(with_it.effects) - 1, dt)
-        frees = mine + plant_frees(with_it, free_plant)
-        for i in refit:
-            frees += Free.effect(with_it, i, dt)
+        frees = mine + _frees(replay, with_it, free_plant, refit)
         if not frees:
             if est is None:
                 return Tried(cand, None, note="nothing to fit and nothing read from the data")
@@ -304,9 +302,7 @@ def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
                                 for t in (first, second)))
     dt = replay.data.sample_time_s
     mine = Free.effect(both, n, dt) + Free.effect(both, n + 1, dt)
-    frees = mine + plant_frees(both, free_plant)
-    for i in refit:
-        frees += Free.effect(both, i, dt)
+    frees = mine + _frees(replay, both, free_plant, refit)
     try:
         points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees])
         alone = min(t.result.rss for t in (first, second))
@@ -751,9 +747,7 @@ def _calibrate(replay, scorer, model: Plant, res: FitResult, free_plant, cal_fre
                  restarts=CALIBRATION_RESTARTS)
     if cal is None or cal.weighted_rms <= AT_NOISE or not _accepts(scorer, res, cal):
         return cal
-    frees = list(cal_frees) + plant_frees(model, free_plant)
-    for j in added:
-        frees += Free.effect(model, j, replay.data.sample_time_s)
+    frees = _frees(replay, model, tuple(cal_frees) + tuple(free_plant), added)
     fits = [fit(replay, model, frees, scorer, start=list(x), central=True, restarts=CALIBRATION_RESTARTS)
             for x in calibration.starts(replay, scorer, model, frees, len(cal_frees))]
     return _best_fit([cal] + [f for f in fits if f.converged])
@@ -771,14 +765,21 @@ def _without(res: FitResult, i: int, first: int, replay, scorer, free_plant) -> 
     return _refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)))
 
 
+def _frees(replay, plant: Plant, free_plant, effects) -> list[Free]:
+    """The free plant values ``free_plant`` (paths or ``Free``s), then the parameters of the
+    effects numbered in ``effects``."""
+    frees = plant_frees(plant, free_plant)
+    for j in effects:
+        frees += Free.effect(plant, j, replay.data.sample_time_s)
+    return frees
+
+
 def _refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = False,
            restarts: int = 0) -> FitResult | None:
     """``plant`` with the free plant values ``free_plant`` (paths or ``Free``s) and the parameters
     of the effects numbered in ``effects`` fitted jointly (scored as it is when there are none);
     None when it cannot be simulated or does not converge.  ``central``, ``restarts``: see :func:`fit`."""
-    frees = plant_frees(plant, free_plant)
-    for j in effects:
-        frees += Free.effect(plant, j, replay.data.sample_time_s)
+    frees = _frees(replay, plant, free_plant, effects)
     try:
         r = (fit(replay, plant, frees, scorer, central=central, restarts=restarts) if frees
              else evaluate(replay, scorer, plant))

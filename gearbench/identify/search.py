@@ -55,11 +55,24 @@ def to_coordinates(q: np.ndarray, frees: list[Free]) -> np.ndarray:
     return out
 
 
+def unit_points(k: int, n: int | None = None, seed: int = SEED) -> np.ndarray:
+    """``n`` (default :func:`point_count`) scrambled Sobol points in the unit cube of ``k`` dimensions."""
+    n = point_count(k) if n is None else n
+    return qmc.Sobol(k, scramble=True, rng=np.random.default_rng(seed)).random(n)
+
+
 def sobol_points(frees: list[Free], n: int | None = None, seed: int = SEED) -> np.ndarray:
     """``n`` (default :func:`point_count`) scrambled Sobol points over ``frees``' coordinates."""
-    n = point_count(len(frees)) if n is None else n
-    q = qmc.Sobol(len(frees), scramble=True, rng=np.random.default_rng(seed)).random(n)
-    return to_coordinates(q, frees)
+    return to_coordinates(unit_points(len(frees), n, seed), frees)
+
+
+def around(start, scanned: np.ndarray) -> np.ndarray:
+    """One row of ``start`` (fit coordinates of every free) per row of ``scanned``, its first
+    columns replaced by that row: the other free parameters held where they start."""
+    full = np.tile(np.asarray(start, dtype=float), (len(scanned), 1))
+    if len(scanned):
+        full[:, :scanned.shape[1]] = scanned
+    return full
 
 
 def scan(replay: Replay, scorer: Scorer, plant, frees: list[Free], points) -> list[tuple[float, np.ndarray]]:
@@ -85,9 +98,6 @@ def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: in
     stay at ``start`` (fit coordinates of every free), which is itself one of the points."""
     start = np.asarray(start, dtype=float)
     pts = sobol_points(frees[:scanned], n) if scanned else np.empty((0, 0))
-    full = np.tile(start, (len(pts), 1))
-    if scanned:
-        full[:, :scanned] = pts
-    points = [start] + list(full)
+    points = [start] + list(around(start, pts))
     ranked = scan(replay, scorer, plant, frees, points)
     return [x for _, x in ranked[:LOCAL_STARTS]] or [start], len(points)
