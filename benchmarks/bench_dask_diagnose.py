@@ -3,7 +3,7 @@
 The rung: the first rung's candidate fits of ``gearbench diagnose`` (every effect
 of the library that can act, in every place: 15 candidates) of the bench rig
 against the shipped 10 s record (``experiments/data/bench_rig_hidden.csv``, 10 001
-samples), as ``diagnose`` screens them (``_fit_all`` through an
+samples), as ``diagnose`` screens them (``candidates.fit_each`` through an
 ``identify.executor.Executor``).  Timed four ways, each after every process that
 fits has loaded the compiled models of every candidate (so the figures compare
 where the fits run, not numba's disk cache):
@@ -42,7 +42,7 @@ from pathlib import Path
 os.environ.update({k: "1" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")})
 
 from gearbench.experiment.files import load_plant
-from gearbench.identify.diagnose import _fit_all, _start_values, candidates
+from gearbench.identify.candidates import candidates, fit_each, start_values
 from gearbench.identify.executor import Executor
 from gearbench.identify.fit import Scorer
 from gearbench.identify.replay import Replay
@@ -60,7 +60,7 @@ DATA = REPO / "experiments" / "data" / "bench_rig_hidden.csv"
 def load_models(plant, replay, cands) -> None:
     """One replay of each candidate at its starting values: loads its compiled model in this process."""
     for c in cands:
-        replay.run(plant.with_effects(AddedEffect(c.name, _start_values(plant, c))))
+        replay.run(plant.with_effects(AddedEffect(c.name, start_values(plant, c))))
 
 
 def fits(tried) -> str:
@@ -71,7 +71,7 @@ def fits(tried) -> str:
 
 def rung(plant, replay, scorer, cands, where: Executor) -> tuple[float, list]:
     t0 = time.perf_counter()
-    tried = _fit_all(replay, scorer, plant, cands, (), (), where, None)
+    tried = fit_each(replay, scorer, plant, cands, where)
     return time.perf_counter() - t0, tried
 
 

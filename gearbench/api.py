@@ -714,7 +714,7 @@ class DiagnosisReport:
 
     Parameters
     ----------
-    diagnosis : gearbench.identify.diagnose.Diagnosis
+    diagnosis : gearbench.identify.results.Diagnosis
         The full result (fits, plants), kept as ``diagnosis``.
 
     Examples
@@ -842,7 +842,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         Start no new rung after this many seconds, s (the rung that crosses it finishes;
         ``to_dict()["stopped"]`` is then ``"time limit"``).
     progress : callable, optional
-        Called with a ``gearbench.identify.diagnose.ProgressEvent`` (step, stage, fits done
+        Called with a ``gearbench.identify.progress.ProgressEvent`` (step, stage, fits done
         and to do, the fit just finished, the best so far, seconds elapsed) as each stage
         starts and each fit finishes.
 
@@ -870,8 +870,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     >>> d.verdict, d.unit
     ('coulomb_friction', 'deg')
     """
+    from .identify.candidates import unknown_effects
     from .identify.diagnose import diagnose as _diagnose
-    from .plant.effects import REGISTRY
     where = "diagnose"
     problems: list[str] = []
     Number("steps", integer=True).check(max_steps, "max_steps", problems)
@@ -886,8 +886,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         if isinstance(seq, str) or not all(isinstance(s, str) for s in seq):
             problems.append(f"{key} must be a sequence of strings, got {show(seq)}")
     if not problems:
-        problems += [f"only: unknown effect {n!r}; the library has {', '.join(REGISTRY)}"
-                     for n in only if n not in REGISTRY]
+        problems += unknown_effects(only, "only")
     _raise(where, problems)
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)
     from .identify.fit import Free
@@ -896,54 +895,6 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only),
                                      calibrate=bool(calibrate), scheduler=scheduler, time_limit_s=time_limit_s,
                                      progress=progress))
-
-
-@single_threaded
-def fit_candidates(plant: Plant, replay, name: str, options: Mapping | None = None,
-                   start: Mapping | None = None, free: Sequence[str] = (), refit: bool = False,
-                   max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None) -> list:
-    """Fit effect ``name`` in every place it may act (``options`` fixes some,
-    e.g. ``{"location": "load"}``) to the replayed record; one
-    ``identify.diagnose.Tried`` per place.  ``start``: starting values of its
-    parameters; ``calibrate``: the plant's own values within their tolerances too
-    (``identify.calibration.plan``); ``scheduler``: the places are fitted on the Dask
-    cluster at this address, one task each (``identify.executor``; in this process
-    without it).  Shared by :func:`fit` and ``gearbench fit``."""
-    from .identify import calibration
-    from .identify.diagnose import CALIBRATION_RESTARTS, Candidate, _run_candidate, _start_values, candidates, not_tried
-    from .identify.executor import Executor
-    from .identify.fit import Free, Scorer
-    from .plant.effects import REGISTRY
-    from .plant.effects.location import key as file_key
-    if name not in REGISTRY:
-        raise ValueError(f"effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
-    options = dict(options or {})
-    why = not_tried(plant, replay, (name,)).get(name)
-    if why:
-        raise ValueError(f"effect {name}: it cannot act on plant {plant.name}: {why}")
-    places = [c for c in candidates(plant, replay, (name,)) if all(c.options.get(k) == v for k, v in options.items())]
-    if not places:
-        raise ValueError(f"effect {name}: it cannot be added here (already in the plant, or options "
-                         f"{options} not allowed)")
-    for c in places:  # a misspelt starting value would ride along in the plant, unused
-        keys = {file_key(c.options, q.name) if "location" in REGISTRY[name].options else q.name: q.unit
-                for q in REGISTRY[name].params}
-        for k in start or {}:
-            if k not in keys:
-                carriage = c.options.get("location") == "carriage"
-                listing = ", ".join(k2 if carriage else f"{k2} ({u})" for k2, u in keys.items())
-                raise ValueError(f"effect {c.label()}: {k!r} is not one of its parameters; they are {listing}")
-    for p in free:
-        Free.plant(plant, p)  # a bad key is named before any solving
-    scorer = Scorer(replay)
-    again = tuple(range(len(plant.effects))) if refit else ()
-    with Executor(1, scheduler) as where:  # a scheduler is reached (or named unreachable) before calibrating
-        cal = calibration.plan(plant, replay, scorer).frees if calibrate else []
-        return where.map(_run_candidate, [
-            (replay, scorer, plant, Candidate(name, c.options), tuple(free) + tuple(cal), again,
-             None if not start else {**c.options, **_start_values(plant, c), **start}, max_evals,
-             CALIBRATION_RESTARTS if cal else 0)  # as diagnose's calibration: tied datasheet values stall
-            for c in places])
 
 
 @dataclass
@@ -974,6 +925,8 @@ class FitReport:
         The unit of each value and standard error, same keys.
     correlation : dict
         Parameter -> parameter -> correlation of the two estimates.
+    tried : list of dict
+        Every place tried: ``effect`` (its label), ``converged``, ``note``.
 
     Examples
     --------
@@ -996,13 +949,14 @@ class FitReport:
     message: str = ""
     units: dict = field(default_factory=dict)
     correlation: dict = field(default_factory=dict)
+    tried: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """The fit as plain values (JSON-ready)."""
         return {"effect": self.effect, "values": self.values, "stderr": self.stderr, "units": self.units,
                 "correlation": self.correlation,
                 "error_before": self.error_before, "error_after": self.error_after,
-                "error_unit": self.unit, "error_signal": self.signal, "message": self.message}
+                "error_unit": self.unit, "error_signal": self.signal, "message": self.message, "tried": self.tried}
 
     def to_pandas(self) -> pd.DataFrame:
         """One row per fitted parameter: value and standard error."""
@@ -1086,7 +1040,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     >>> f.effect, round(f.error_before, 1), round(f.error_after, 2), f.unit   # RMS of the load angle
     ('load_spring', 212.0, 20.21, 'deg')
     """
-    from .identify.fit import FitError, Scorer
+    from .identify.candidates import NotConverged, unknown_effects
+    from .identify.fit import FitError
     where = "fit"
     problems: list[str] = []
     if not isinstance(effect, str):
@@ -1100,22 +1055,38 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         problems.append(f"free must be a sequence of strings, got {show(free)}")
     _check_scheduler(scheduler, problems)
     _raise(where, problems)
+    if not problems and isinstance(effect, str):
+        problems += unknown_effects([effect], "effect")
+    _raise(where, problems)
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)
     try:
-        tried = fit_candidates(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate),
-                               scheduler)
-    except ValueError as exc:
-        if type(exc) is not ValueError:  # already one of the project's named errors
+        return fit_report(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate), scheduler)
+    except FitError as exc:
+        if isinstance(exc, NotConverged):
             raise
         raise ConfigError(where, str(exc)) from None
-    ok = [t for t in tried if t.ok]
-    if not ok:
-        raise FitError("the fit did not converge: " + "; ".join(f"{t.candidate.label()}: {t.note}" for t in tried)
-                       + ". The plant is unchanged.")
-    best = min(ok, key=lambda t: t.result.bic)
+
+
+@single_threaded
+def fit_report(plant: Plant, replay, effect: str, options: Mapping | None = None, start: Mapping | None = None,
+               free: Sequence[str] = (), refit: bool = False, max_evals: int | None = None,
+               calibrate: bool = False, scheduler: str | None = None) -> FitReport:
+    """:func:`fit` of a plant and a replay already built (``identify.replay.Replay``, as
+    ``gearbench fit`` builds it): every place of ``effect`` fitted
+    (``identify.candidates.fit_effect``), the lowest BIC kept.  Raises ``FitError`` for a bad
+    effect, option, starting value or free key, and its ``NotConverged`` (with each place's try)
+    when no place converged."""
+    from .identify.candidates import best_tried, fit_effect
+    from .identify.fit import Scorer
+    tried = fit_effect(plant, replay, effect, options, start, free, refit, max_evals, calibrate, scheduler)
+    best = best_tried(tried)
     scorer = Scorer(replay)
-    unit = data.signal_unit(scorer.primary) if scorer.primary in data.signals else data.input_unit
     res = best.result
     return FitReport(best.candidate.label(), res.plant, res.values, res.stderr,
-                     scorer.error(replay.run(plant)), res.error, unit, scorer.primary, res.message,
-                     res.units, res.correlation)
+                     scorer.error(replay.run(plant)), res.error, replay.unit(scorer.primary), scorer.primary,
+                     res.message, res.units, res.correlation, attempts(tried))
+
+
+def attempts(tried) -> list[dict]:
+    """Each place tried: its label, whether it converged and why not."""
+    return [{"effect": t.candidate.label(), "converged": t.ok, "note": t.note} for t in tried]

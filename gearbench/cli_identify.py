@@ -339,7 +339,7 @@ def _print_ladder(d, where) -> None:
 @contextmanager
 def _ladder_progress(disable: bool):
     """A rich progress display of the whole ladder on stderr; yields the callback ``diagnose`` takes
-    (:class:`gearbench.identify.diagnose.ProgressEvent`), None when ``disable``."""
+    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``."""
     if disable:
         yield None
         return
@@ -392,10 +392,10 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     in time (a prewhitened Newey-West sandwich, gearbench.identify.uncertainty).
     A fit that does not converge says so, writes nothing and exits 1.
     """
-    from .api import fit_candidates
+    from .api import attempts, fit_report
     from .cli_synth import parse_effect
-    from .identify.fit import Scorer
     from .experiment.writer import update_plant_yaml
+    from .identify.candidates import NotConverged, check_names
     from .identify.uncertainty import strong_correlations
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic
@@ -403,48 +403,38 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
         item = parse_effect(effect_spec)
         name = item.pop("type")
-        if name not in REGISTRY:
-            raise ValueError(f"--effect: unknown effect {name!r}; the library has {', '.join(REGISTRY)}")
-        eff = REGISTRY[name]
-        opts = {k: v for k, v in item.items() if k in eff.options}
+        check_names([name], "--effect")
+        opts = {k: v for k, v in item.items() if k in REGISTRY[name].options}
         start = {k: v for k, v in item.items() if k not in opts}
-        scorer = Scorer(replay)
         with console.status(f"fitting {name}"):
-            tried = fit_candidates(plant, replay, name, opts, start, free, refit, max_evals, calibrate, scheduler)
+            f = fit_report(plant, replay, name, opts, start, free, refit, max_evals, calibrate, scheduler)
+    except NotConverged as exc:
+        if as_json:
+            echo_json({"converged": False, "effect": name, "output": None, "tried": attempts(exc.tried)})
+        console.print(f"[bold red]error:[/] {exc} {output}: nothing written.", highlight=False)
+        sys.exit(EXIT_FAILED)
     except _errors() as exc:
         _fail(exc)
-    ok = [t for t in tried if t.ok]
-    attempts = [{"effect": t.candidate.label(), "converged": t.ok, "note": t.note} for t in tried]
-    if not ok:
-        notes = "; ".join(f"{t.candidate.label()}: {t.note}" for t in tried)
-        if as_json:
-            echo_json({"converged": False, "effect": name, "output": None, "tried": attempts})
-        console.print(f"[bold red]error:[/] the fit did not converge: {notes}. The plant is unchanged; "
-                      "nothing written.", highlight=False)
-        sys.exit(EXIT_FAILED)
-    best = min(ok, key=lambda t: t.result.bic)
-    res = best.result
-    base_err = Scorer(replay).error(replay.run(plant))
-    header = (f"{plant.name} + {best.candidate.label()}, fitted by gearbench fit to {data_file.name}\n"
-              f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}")
+    header = (f"{plant.name} + {f.effect}, fitted by gearbench fit to {data_file.name}\n"
+              f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}")
     # the user's file edited in place of a fresh dump: comments, key order and description stay
-    write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, res.plant,
-                                                res.stderr, header, res.units))
+    write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, f.plant,
+                                                f.stderr, header, f.units))
     if as_json:
-        echo_json({"converged": True, "effect": best.candidate.label(), "values": res.values,
-                   "stderr": res.stderr, "units": res.units, "correlation": res.correlation,
-                   "error_signal": scorer.primary, "error_before": base_err,
-                   "error_after": res.error, "output": str(output), "tried": attempts})
-        console.print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}",
+        echo_json({"converged": True, "effect": f.effect, "values": f.values,
+                   "stderr": f.stderr, "units": f.units, "correlation": f.correlation,
+                   "error_signal": f.signal, "error_before": f.error_before,
+                   "error_after": f.error_after, "output": str(output), "tried": f.tried})
+        console.print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output}",
                       highlight=False)
         return
-    tab = Table(title=f"{best.candidate.label()} fitted to {data_file.name}")
+    tab = Table(title=f"{f.effect} fitted to {data_file.name}")
     for col in ("parameter", "value", "standard error", "unit"):
         tab.add_column(col)
-    for k, v in res.values.items():
-        se = res.stderr.get(k, math.nan)
-        tab.add_row(k, f"{v:.6g}", f"{se:.3g}", res.units.get(k, ""))
+    for k, v in f.values.items():
+        se = f.stderr.get(k, math.nan)
+        tab.add_row(k, f"{v:.6g}", f"{se:.3g}", f.units.get(k, ""))
     stdout().print(tab)
-    for a, b, rho in strong_correlations(res.correlation):
+    for a, b, rho in strong_correlations(f.correlation):
         stdout().print(f"correlated estimates: {a} and {b}, {rho:+.3f}", highlight=False)
-    stdout().print(f"error (RMS of {scorer.primary}): {base_err:.4g} -> {res.error:.4g}; wrote {output}")
+    stdout().print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output}")

@@ -28,7 +28,8 @@ from click.testing import CliRunner
 from gearbench import api
 from gearbench.cli import main
 from gearbench.experiment.files import load_plant
-from gearbench.identify.diagnose import candidates, diagnose
+from gearbench.identify.candidates import candidates
+from gearbench.identify.diagnose import diagnose
 from gearbench.identify.executor import Executor
 from gearbench.identify.replay import Replay
 from gearbench.identify.synth import excitation, synthesize
@@ -61,7 +62,7 @@ def record():
 @contextlib.contextmanager
 def counting_fits(cluster):
     """Yields a Counter that, after the block, holds how many tasks of each function the cluster
-    ran in it (``run_candidate``: ``diagnose._run_candidate``, one candidate's fit)."""
+    ran in it (``run_candidate``: ``candidates.run_candidate``, one candidate's fit)."""
     counts: Counter = Counter()
     with distributed.Client(cluster, set_as_default=False) as watcher, \
             distributed.get_task_stream(client=watcher) as stream:

@@ -156,7 +156,7 @@ def test_datasheet_values_off_and_an_effect_missing_on_8_s():
     floors at 0.0054, 3.2x at 0.0056, 0.98x at the truth's 0.006), and from p04's values the fit
     took the wrong branch: the ladder ended at 143x the noise floor, load inertia 0.00539 for
     0.006 (2026-11-27).  A calibration that pays but stops short of the noise is now fitted again
-    from the best points of a scan of the tolerance box (``diagnose._calibrate``): the ladder
+    from the best points of a scan of the tolerance box (``ladder.calibrate``): the ladder
     takes Coulomb friction with a load spring as a pair, the calibration, and takes the spring
     out, at 0.988x the noise floors, every value within 0.2 % (157 s on 2 cores, 2026-11-28)."""
     truth = load_plant(RIG)

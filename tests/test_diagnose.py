@@ -132,7 +132,8 @@ def test_leadscrew_carriage_friction_is_found():
 
 
 def test_json_candidates_carry_the_contract_keys_and_failures_say_why():
-    from gearbench.identify.diagnose import RANKING, Candidate, Diagnosis, Tried, _rank
+    from gearbench.identify.candidates import RANKING, Candidate, Tried, rank as _rank
+    from gearbench.identify.results import Diagnosis
     from gearbench.identify.fit import FitResult
 
     plant = load_plant(PLANTS / "bench_rig.yaml")
@@ -161,7 +162,8 @@ def test_an_effect_that_no_longer_pays_is_taken_out():
     """Stepwise backwards: a record with viscous friction only, and a ladder that took Coulomb
     friction first and viscous friction second.  Refitted together the Coulomb torque has
     nothing left to explain, so ``_prune`` takes it out and keeps the viscous term."""
-    from gearbench.identify.diagnose import _accepts, _prune
+    from gearbench.identify.ladder import removals
+    from gearbench.identify.policy import Policy
     from gearbench.identify.fit import Free, Scorer, fit
 
     plant = load_plant(PLANTS / "bench_rig.yaml")
@@ -173,10 +175,10 @@ def test_an_effect_that_no_longer_pays_is_taken_out():
                               AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.03}))
     res = fit(replay, both, Free.effect(both, 0) + Free.effect(both, 1), scorer)
     assert res.converged
-    removed = _prune(replay, scorer, res, 0, ())
+    removed = removals(replay, scorer, Policy(), res, 0, ())
     assert [(e.name, e.values["location"]) for e, _, _ in removed] == [("coulomb_friction", "load")]
     gone, without, gain = removed[0]
-    assert not _accepts(scorer, without, res) and gain < 10.0
+    assert not Policy().accepts(scorer, without, res) and gain < 10.0
     assert [e.name for e in without.plant.effects] == ["viscous_friction"]
     assert without.plant.effects[0].values["coefficient"] == pytest.approx(0.05, rel=0.05)
     assert without.error <= 1.5 * scorer.noise_floor
@@ -187,4 +189,4 @@ def test_an_effect_that_no_longer_pays_is_taken_out():
     scorer2 = Scorer(replay2)
     two = plant.with_effects(*hidden)
     res2 = fit(replay2, two, Free.effect(two, 0) + Free.effect(two, 1), scorer2)
-    assert res2.converged and _prune(replay2, scorer2, res2, 0, ()) == []
+    assert res2.converged and removals(replay2, scorer2, Policy(), res2, 0, ()) == []

@@ -14,7 +14,10 @@ import psutil
 import pytest
 
 from gearbench.experiment.files import load_plant
-from gearbench.identify.diagnose import STAGES, STOPPED, DiagnosisInterrupted, diagnose
+from gearbench.identify.diagnose import DiagnosisInterrupted, diagnose
+from gearbench.identify.policy import Policy
+from gearbench.identify.progress import STAGES
+from gearbench.identify.results import STOPPED
 from gearbench.identify.replay import Replay
 from gearbench.identify.synth import excitation, synthesize
 from gearbench.plant.effects import AddedEffect
@@ -23,6 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 RIG = REPO / "experiments" / "plants" / "bench_rig.yaml"
 ONLY = ("coulomb_friction", "load_spring", "bias_torque")
 NOISE = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}
+ONE_RUNG = Policy(pair_top=1)  # no pairs: one rung per effect
 
 
 @pytest.fixture(scope="module")
@@ -38,14 +42,12 @@ def two_effects():
 
 @pytest.fixture(scope="module")
 def followed(two_effects):
-    """The diagnosis with every progress event.  No pairs (``PAIR_TOP`` 1), so the two effects take
+    """The diagnosis with every progress event.  No pairs (``Policy.pair_top`` 1), so the two effects take
     one rung each, a candidate screen per rung (fitted jointly as a pair, both would come in the
     first rung)."""
     plant, replay = two_effects
     events = []
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("gearbench.identify.diagnose.PAIR_TOP", 1)
-        d = diagnose(plant, replay, max_steps=3, only=ONLY, workers=1, progress=events.append)
+    d = diagnose(plant, replay, max_steps=3, only=ONLY, workers=1, progress=events.append, policy=ONE_RUNG)
     return d, events
 
 
@@ -69,18 +71,16 @@ def test_progress_follows_every_rung_of_the_ladder(followed):
     assert d.stopped in STOPPED and d.to_json()["stopped"] == d.stopped
 
 
-def test_time_limit_stops_after_the_rung_that_crosses_it(two_effects, followed, monkeypatch):
-    monkeypatch.setattr("gearbench.identify.diagnose.PAIR_TOP", 1)  # one rung each, as ``followed``
+def test_time_limit_stops_after_the_rung_that_crosses_it(two_effects, followed):
     plant, replay = two_effects
     full, _ = followed
-    d = diagnose(plant, replay, max_steps=3, only=ONLY, workers=1, time_limit_s=0.0)
+    d = diagnose(plant, replay, max_steps=3, only=ONLY, workers=1, time_limit_s=0.0, policy=ONE_RUNG)
     assert d.stopped == "time limit" and "time limit" in d.reason, d.reason
     assert len(d.ladder) == 1 and d.ladder[0].effect == full.ladder[0].effect
     assert d.to_json()["stopped"] == "time limit"
 
 
-def test_an_interrupt_carries_the_ladder_so_far(two_effects, followed, monkeypatch):
-    monkeypatch.setattr("gearbench.identify.diagnose.PAIR_TOP", 1)
+def test_an_interrupt_carries_the_ladder_so_far(two_effects, followed):
     plant, replay = two_effects
     full, _ = followed
 
@@ -89,7 +89,7 @@ def test_an_interrupt_carries_the_ladder_so_far(two_effects, followed, monkeypat
             raise KeyboardInterrupt
 
     with pytest.raises(DiagnosisInterrupted) as stop:
-        diagnose(plant, replay, max_steps=3, only=ONLY, workers=1, progress=ctrl_c_in_step_2)
+        diagnose(plant, replay, max_steps=3, only=ONLY, workers=1, progress=ctrl_c_in_step_2, policy=ONE_RUNG)
     d = stop.value.diagnosis
     assert isinstance(stop.value, KeyboardInterrupt)
     assert d.stopped == "interrupted" and "step 2" in d.reason

@@ -1,6 +1,6 @@
 """diagnose's global search: the space-filling multi-start, the Stribeck order constraint, the
 location chosen on every signal's evidence, and the pairwise joint refits (search.py, fit.py,
-evidence.py, diagnose.py)."""
+evidence.py, candidates.py, ladder.py)."""
 from __future__ import annotations
 
 import math
@@ -10,8 +10,12 @@ import pytest
 
 from gearbench.experiment.files import load_plant
 from gearbench.identify import search
-from gearbench.identify import diagnose as diagnose_module
-from gearbench.identify.diagnose import Candidate, Tried, _pair_jobs, _rank, diagnose, try_candidate
+from gearbench.identify import candidates as candidates_module
+from gearbench.identify import ladder
+from gearbench.identify.candidates import Candidate, Pair, Trial, Tried, pair_jobs, rank as _rank, try_candidate
+from gearbench.identify.diagnose import diagnose
+from gearbench.identify.policy import Policy
+from gearbench.identify.progress import Tracker
 from gearbench.identify.evidence import location_text, signal_evidence
 from gearbench.identify.fit import Free, FitResult, Scorer, fit, get_value, own_jacobian, set_values
 from gearbench.identify.replay import Replay
@@ -137,7 +141,7 @@ def test_a_stribeck_fit_never_ends_below_its_sliding_level():
                            seed=5, duration=1.5))
     scorer = Scorer(replay)
     start = {"location": "load", "static_torque": 0.2, "coulomb_torque": 0.5, "stribeck_speed": 1.0}
-    t = try_candidate(replay, scorer, plant, Candidate("stribeck_friction", {"location": "load"}), start=start)
+    t = try_candidate(replay, scorer, plant, Candidate("stribeck_friction", {"location": "load"}), Trial(start=start))
     assert t.ok, t.note
     assert t.params["static_torque"] >= t.params["coulomb_torque"]
     assert t.params["coulomb_torque"] == pytest.approx(0.6, rel=0.15)
@@ -154,7 +158,7 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
     tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
                    {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
     tried.insert(3, Tried(Candidate("bias_torque", {}), None))  # a failed fit of another place does not count
-    jobs = _pair_jobs(None, None, plant, tried, (), ())
+    jobs = pair_jobs(None, None, plant, tried, (), (), Policy().pair_top)
     pairs = {frozenset((j[3].candidate.name, j[4].candidate.name)) for j in jobs}
     top = ranked[:6]
     expected = {frozenset((a, b)) for i, a in enumerate(top) for b in top[i + 1:]
@@ -177,34 +181,33 @@ def _six_ranked(plant) -> list[Tried]:
 
 
 def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(monkeypatch):
-    """Pairs are fitted ``PAIR_BATCH`` at a time in rank order; once a batch ends with a pair
-    within ``AT_NOISE`` of the noise floors the rest are not fitted (and are counted), whatever
-    the number of workers; with none at the floors every pair is fitted.  After a first batch
-    short of the floors, the next rung's screen (``ahead``) runs once, and ends the pairs when
-    it reaches them."""
+    """Pairs are fitted ``Policy.pair_batch`` at a time in rank order; once a batch ends with a pair
+    within ``at_noise`` of the noise floors the rest are not fitted, whatever the number of
+    workers; with none at the floors every pair is fitted.  After a first batch short of the
+    floors, the next rung's screen (``ahead``) runs once, and ends the pairs when it reaches them."""
     from types import SimpleNamespace
     plant = _rig()
     tried = _six_ranked(plant)
-    jobs = _pair_jobs(None, None, plant, tried, (), ())
-    assert len(jobs) > 2 * diagnose_module.PAIR_BATCH
+    policy = Policy()
+    jobs = pair_jobs(None, None, plant, tried, (), (), policy.pair_top)
+    assert len(jobs) > 2 * policy.pair_batch
 
     def run(at_noise: int, workers, greedy_at_noise=False):
         batches, looked = [], []
 
-        def fake_map(fn, batch, workers, progress):
+        def fake_run_jobs(fn, batch, workers, progress):
             batches.append(len(batch))
-            return [diagnose_module.Pair(j[3], j[4], SimpleNamespace(
+            return [Pair(j[3], j[4], SimpleNamespace(
                 converged=True, error=1.0, weighted_rms=1.0 if jobs.index(j) == at_noise else 5.0)) for j in batch]
 
         def ahead(batch):
             looked.append(len(batch))
-            return greedy_at_noise
-        monkeypatch.setattr(diagnose_module, "_map", fake_map)
-        fitted, unfitted, stopped = diagnose_module._fit_pairs(None, None, plant, tried, (), (), workers,
-                                                               diagnose_module._Tracker(None), ahead)
-        return len(fitted), unfitted, batches, looked, stopped
+            return SimpleNamespace(reaches=greedy_at_noise)
+        monkeypatch.setattr(ladder, "run_jobs", fake_run_jobs)
+        fitted, screen = ladder.fit_pairs(jobs, policy, workers, None, ahead)
+        return len(fitted), len(jobs) - len(fitted), batches, looked, bool(screen and screen.reaches)
 
-    b = diagnose_module.PAIR_BATCH
+    b = policy.pair_batch
     for workers in (1, 2):
         assert run(b + 1, workers) == (2 * b, len(jobs) - 2 * b, [b, b], [b], False)
     assert run(0, 2) == (b, len(jobs) - b, [b], [], False)  # the first batch reached the floors
@@ -215,35 +218,37 @@ def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(mo
 
 
 def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_first_batch_pays(monkeypatch):
-    """A first batch whose pair pays (by ``_accepts`` against the model and the best single) will
-    give the rungs, so the next rung's screen on the best single alone is not made (on EMPS the
+    """A first batch whose pair pays (by ``Policy.accepts`` against the model and the best single)
+    will give the rungs, so the next rung's screen on the best single alone is not made (on EMPS the
     friction pair of the first batch wins: a screen made beside it cost 61 s in one process);
     where none pays it is, and at the floors it ends the pairs with no pair taken."""
     from types import SimpleNamespace
     plant = _rig()
     tried = _six_ranked(plant)
-    current = SimpleNamespace(bic=1000.0, weighted_rms=50.0, seams=())
+    current = SimpleNamespace(bic=1000.0, weighted_rms=50.0, seams=(), plant=plant)
     best = SimpleNamespace(result=SimpleNamespace(bic=900.0, weighted_rms=40.0, seams=()))
+    ctx = SimpleNamespace(policy=Policy(), scorer=None, replay=None, workers=2, tracker=Tracker(None))
+    state = ladder.State(current)
 
     def run(first_pays: bool, greedy_at_noise: bool):
         looked = []
 
-        def fake_map(fn, batch, workers, progress):
-            return [diagnose_module.Pair(j[3], j[4], SimpleNamespace(
+        def fake_run_jobs(fn, batch, workers, progress):
+            return [Pair(j[3], j[4], SimpleNamespace(
                 converged=True, error=1.0, bic=500.0 if first_pays else 899.0,
                 weighted_rms=20.0 if first_pays else 39.9, seams=())) for j in batch]
 
-        def ahead():
-            looked.append(True)
-            return greedy_at_noise
-        monkeypatch.setattr(diagnose_module, "_map", fake_map)
-        pair, unfitted = diagnose_module._better_pair(None, None, plant, current, best, tried, (), (), 2,
-                                                      diagnose_module._Tracker(None), ahead)
+        def look_ahead(ctx, state, best, number):
+            looked.append(number)
+            return SimpleNamespace(reaches=greedy_at_noise)
+        monkeypatch.setattr(ladder, "run_jobs", fake_run_jobs)
+        monkeypatch.setattr(ladder, "_look_ahead", look_ahead)
+        pair, unfitted, _ = ladder._pairs(ctx, state, best, tried, (), 1)
         return pair is not None, unfitted > 0, looked
 
     assert run(first_pays=True, greedy_at_noise=True) == (True, False, [])
-    assert run(first_pays=False, greedy_at_noise=False) == (False, False, [True])
-    assert run(first_pays=False, greedy_at_noise=True) == (False, True, [True])
+    assert run(first_pays=False, greedy_at_noise=False) == (False, False, [2])
+    assert run(first_pays=False, greedy_at_noise=True) == (False, True, [2])
 
 
 @pytest.mark.slow
@@ -253,7 +258,7 @@ def test_coulomb_friction_with_a_bias_on_one_shaft_is_resolved():
     alone, the bias ranks below the six best effects (the friction explains most of what it
     does), but it declares itself confounded with dry friction (``BiasTorque.confounders``),
     so it is refitted jointly with Stribeck friction, which the joint fit takes to Coulomb's
-    level (``_simplify``).  The ladder is exactly the two effects, each within 15 %, ending at
+    level (``ladder._simplify``).  The ladder is exactly the two effects, each within 15 %, ending at
     the noise floor (2026-11-26: 0.6000 and 0.4000 N m, 0.98x over all signals, 19 s on 2 cores;
     without the declaration it wandered through a spring and Coulomb friction at the motor,
     took them back out and stopped at max_steps, 103 s)."""
@@ -360,7 +365,7 @@ def test_a_fit_tries_no_pinion_below_a_thousandth_of_the_motors_inertia():
 
 def test_a_pair_that_gains_nothing_over_its_better_member_gets_no_second_round(monkeypatch):
     """``try_pair`` gives its fits ``rounds_below`` = the lower RSS of its two members alone: a pair
-    must beat that to pay (``_better_pair``), so a first round that has not is the last."""
+    must beat that to pay (``ladder._pairs``), so a first round that has not is the last."""
     from types import SimpleNamespace
     rig = _rig()
     replay = Replay(record(rig, [], duration=1.0))
@@ -370,11 +375,11 @@ def test_a_pair_that_gains_nothing_over_its_better_member_gets_no_second_round(m
         seen.append(kw.get("rounds_below"))
         return SimpleNamespace(rss=1.0, converged=True)
 
-    monkeypatch.setattr(diagnose_module, "fit", fake_fit)
-    monkeypatch.setattr(diagnose_module.search, "starts", lambda *a, **k: ([np.array(a[-1])] * 2, 1))
+    monkeypatch.setattr(candidates_module, "fit", fake_fit)
+    monkeypatch.setattr(candidates_module.search, "starts", lambda *a, **k: ([np.array(a[-1])] * 2, 1))
     one = Tried(Candidate("viscous_friction", {"location": "load"}), SimpleNamespace(rss=7.0), {"coefficient": 1e-3})
     two = Tried(Candidate("load_spring", {}), SimpleNamespace(rss=5.0), {"stiffness": 1.0, "rest_angle_deg": 0.0})
-    pair = diagnose_module.try_pair(replay, Scorer(replay), rig, one, two)
+    pair = candidates_module.try_pair(replay, Scorer(replay), rig, one, two)
     assert pair.result.rss == 1.0 and seen == [5.0, 5.0]
 
 
@@ -397,6 +402,6 @@ def test_the_next_rung_screened_during_the_pairs_ends_them_at_the_noise_floors()
         assert abs(step.params[name] - value) < 3 * step.stderr[name], (step.params, step.stderr)
     assert d.stopped == "noise floor"
     pairs = [e for e in events if e.stage == "pairs" and e.done > 0]
-    assert len(pairs) == diagnose_module.PAIR_BATCH < pairs[0].total, (len(pairs), pairs[0].total)
+    assert len(pairs) == Policy().pair_batch < pairs[0].total, (len(pairs), pairs[0].total)
     assert [(e.step, e.stage) for e in events if e.done == 0 and e.stage == "candidates"] == [
         (1, "candidates"), (2, "candidates")]

@@ -96,7 +96,7 @@ def test_a_clearance_or_a_shaft_needs_a_rotor_the_plant_file_did_not_lump_into_t
     from dataclasses import replace
 
     from gearbench import api
-    from gearbench.identify.diagnose import candidates, not_tried
+    from gearbench.identify.candidates import candidates, not_tried
     from gearbench.identify.replay import Replay
     from gearbench.plant.effects.base import ROTOR_MIN_SHARE
     replay = Replay(runs.train, ctrl)

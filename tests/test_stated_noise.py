@@ -20,7 +20,8 @@ import gearbench as gb
 from gearbench.cli import main
 from gearbench.experiment.files import ConfigError, load_plant
 from gearbench.identify.compare import comparison
-from gearbench.identify.diagnose import _not_driven, diagnose
+from gearbench.identify.diagnose import diagnose
+from gearbench.identify.explain import not_driven as _not_driven
 from gearbench.identify.fit import Scorer, evaluate, objective_signals
 from gearbench.identify.replay import Replay, ReplayError, noise_at_rest
 from gearbench.identify.residuals import residual_test
@@ -125,25 +126,25 @@ def test_a_stated_noise_still_resets_a_model_that_drifts(rig):
 
 
 def test_an_effect_that_pays_only_by_moving_the_resets_does_not_pay(rig):
-    """``_accepts`` scores both models at the same window seams.  On 16 s of the rig with AR(1)
+    """``Policy.accepts`` scores both models at the same window seams.  On 16 s of the rig with AR(1)
     noise read from the record, the friction the ladder took from 401d868 to f1114f2 (Stribeck at
     the motor, 4.7e-7 N m) pays by the BIC and the 3 % rule only by moving the resets (8 seams to
     10); the Coulomb friction hidden in a record pays at every seams (its own 0 against the
     model's 5 or more)."""
-    from gearbench.identify.diagnose import _accepts, _pays
+    from gearbench.identify.policy import Policy
     m = coloured(rig, 11, duration_s=16.0, options=SolverOptions(rtol=1e-9, max_step_s=1e-3))
     scorer = Scorer(Replay(m))
     stribeck = rig.with_effects(AddedEffect("stribeck_friction", {
         "location": "motor", "static_torque": 4.65185e-07, "coulomb_torque": 1.2e-15, "stribeck_speed": 80.2824}))
     right, wrong = evaluate(scorer.replay, scorer, rig), evaluate(scorer.replay, scorer, stribeck, 3)
     assert len(right.seams) == 8 and len(wrong.seams) == 10
-    assert _pays(right, wrong) and not _accepts(scorer, right, wrong)
+    assert Policy().pays(right, wrong) and not Policy().accepts(scorer, right, wrong)
     hidden = AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})
     t, u = excitation("mixed", rig, duration_s=8.0, seed=0)
     scorer = Scorer(Replay(synthesize(rig, [hidden], t, u, noise=NOISE, seed=0)))
     without, found = evaluate(scorer.replay, scorer, rig), evaluate(scorer.replay, scorer, rig.with_effects(hidden), 1)
     assert len(without.seams) >= 5 and found.seams != without.seams
-    assert _accepts(scorer, without, found)
+    assert Policy().accepts(scorer, without, found)
 
 
 @pytest.mark.parametrize("noise,words", [
@@ -241,7 +242,7 @@ def test_diagnose_with_coloured_noise_read_from_the_record_says_what_is_left(rig
     4.7e-7 N m at the motor (1e-5 of its typical 0.048) moved them from 8 window seams to 10 and
     the weighted RMS from 3.579 to 3.470 (3.04 %, past the 3 % rule; taken from 401d868 to
     f1114f2).  With the resets at the same seams it does not pay (3.669 at the right model's, the
-    right model 3.502 at its own), and ``_accepts`` now asks that (2026-11-28, 36 s)."""
+    right model 3.502 at its own), and ``Policy.accepts`` now asks that (2026-11-28, 36 s)."""
     m = coloured(rig, 11, duration_s=16.0, options=SolverOptions(rtol=1e-9, max_step_s=1e-3))
     d = diagnose(rig, Replay(m))
     assert d.verdict is None and d.stopped == "nothing pays"

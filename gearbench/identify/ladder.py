@@ -1,0 +1,443 @@
+"""The ladder: an immutable sequence of rungs, climbed one step function at a time.
+
+A :class:`State` is the model so far, the rungs that made it and what the climb carries from one
+rung to the next; :func:`climb` yields a new state after every change (a screen, the calibration,
+each rung added, each effect taken out), so whoever drives it holds the ladder as far as it got
+when Ctrl-C comes.  Nothing is edited in place: a removal is a new rung, and a simplification is a
+note on the rung that made it (:class:`Simplified`), which the explanation applies to the rung it
+names (``explain``).  Every decision asks the :class:`~gearbench.identify.policy.Policy`; no
+sentence is written here.
+
+One rung (:func:`_rung`): screen the candidates with the model's effects held, refit the best
+``joint_top`` with them (:func:`screen`); let the calibration of the datasheet values compete
+(:func:`_calibration`); accept the best if it pays, or a pair fitted jointly that beats it
+(:func:`_pairs`); simplify what was added (:func:`_simplify`); take out what no longer pays
+(:func:`_prune`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Iterator
+
+from ..plant.components import Plant
+from ..plant.effects import AddedEffect
+from . import calibration
+from .candidates import Pair, Trial, Tried, candidates, fit_each, pair_jobs, rank, run_jobs, run_pair
+from .executor import Executor
+from .fit import FitResult, Free, Scorer, fit, get_value, plant_frees
+from .policy import Policy
+from .progress import Tracker
+from .refit import best_fit, frees_of, refit
+from .replay import Replay
+from .uncertainty import strong_correlations
+
+
+@dataclass(frozen=True)
+class Context:
+    """What a climb does not change: the record and its scorer, the user's plant and choices, the
+    policy, where the fits run and the clock."""
+    replay: Replay
+    scorer: Scorer
+    plant: Plant                  # the user's plant: its own effects are not the ladder's
+    plan: calibration.Plan        # what a calibration of the datasheet values moves
+    policy: Policy
+    workers: Executor
+    tracker: Tracker
+    free_plant: tuple = ()
+    only: tuple[str, ...] = ()
+    max_steps: int = 4
+    time_limit_s: float | None = None
+
+    def added(self, plant: Plant) -> tuple[int, ...]:
+        """The numbers of ``plant``'s effects that the ladder added."""
+        return tuple(range(len(self.plant.effects), len(plant.effects)))
+
+
+@dataclass(frozen=True)
+class Simplified:
+    """An effect of the model replaced by its simpler form (``Effect.simpler``) at a rung:
+    the rung that had added it (``rung``, its number in the ladder from 0), the names before and
+    after, the BIC gain and the simpler form's values."""
+    rung: int
+    old: str
+    new: str
+    gain: float
+    params: dict
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A rung that came as one of a pair fitted jointly: the pair, the best single candidate it
+    beat, how many pairs were left unfitted, and whether this is its ``first`` member's rung."""
+    pair: Pair
+    best: Tried
+    unfitted: int
+    first: bool
+
+
+@dataclass(frozen=True)
+class Rung:
+    """One rung: an effect added (``action`` "add") or taken out ("remove"), the model after it
+    (``result``, its effects as in a plant file ``model`` and its free plant values
+    ``plant_params``), and what its explanation is written from: the model it was judged
+    against (``before``), the candidate (``best``) among the screen (``tried``), the pair it
+    came in (``joint``), what it simplified, and what came in before a removal (``after``)."""
+    action: str
+    effect: str
+    options: dict
+    params: dict
+    stderr: dict
+    result: FitResult
+    model: list
+    plant_params: dict
+    before: FitResult
+    best: Tried | None = None
+    tried: tuple = ()
+    joint: Joint | None = None
+    simplified: tuple[Simplified, ...] = ()
+    after: str = ""
+    correlations: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class CalibrationStep:
+    """The plant's datasheet values calibrated (``calibration.plan``'s), after ``after`` ladder
+    steps: the model before and after."""
+    after: int
+    before: FitResult
+    result: FitResult
+
+
+@dataclass(frozen=True)
+class Ahead:
+    """The next rung's screen, made during a rung's pair stage (:func:`_pairs`): ``fitted`` is the
+    model with the rung's best candidate added alone and simplified (``notes``), ``tried`` the
+    candidates ranked on it; ``reaches``: its best pays and reaches the noise floors."""
+    fitted: FitResult
+    notes: tuple
+    tried: tuple
+    reaches: bool
+
+
+@dataclass(frozen=True)
+class Stop:
+    """Why the climb ended (``why``: one of ``results.STOPPED``) and what its sentence needs:
+    ``judged`` whether a screen's best was judged (else the ladder stopped before a screen),
+    ``best`` that candidate (None: there was none to fit), ``screened`` whether there were any to
+    try, ``elapsed_s`` the clock then."""
+    why: str
+    judged: bool = False
+    best: Tried | None = None
+    screened: bool = True
+    elapsed_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class State:
+    """The ladder so far: the model (``model``, a fit of the plant with the effects added), the
+    rungs, the rung that added each effect of the model past the plant's own (``owners``), the
+    calibration, the plant values refitted with every joint refit (``refitted``), the first
+    rung's screen, the next rung's screen when it was made ahead, the steps taken (a pair is
+    one), and the stop once there is one."""
+    model: FitResult
+    rungs: tuple[Rung, ...] = ()
+    owners: tuple[int, ...] = ()
+    calibration: CalibrationStep | None = None
+    refitted: tuple = ()
+    first_tried: tuple = ()
+    ahead: Ahead | None = None
+    steps: int = 0
+    stop: Stop | None = None
+
+
+def climb(ctx: Context, state: State) -> Iterator[State]:
+    """Every state of the climb from ``state``, the last with its :class:`Stop`."""
+    while state.stop is None:
+        for state in _rung(ctx, state):
+            yield state
+
+
+def _stop_before(ctx: Context, state: State) -> Stop | None:
+    """A stop before the next rung: the longest ladder, the noise floors reached, the time limit."""
+    if state.steps >= ctx.max_steps:
+        return Stop("max steps")
+    if (state.rungs or state.calibration) and ctx.policy.explained(state.model):
+        return Stop("noise floor")
+    elapsed = ctx.tracker.elapsed_s
+    if ctx.time_limit_s is not None and (state.rungs or state.calibration) and elapsed > ctx.time_limit_s:
+        return Stop("time limit", elapsed_s=elapsed)
+    return None
+
+
+def _rung(ctx: Context, state: State) -> Iterator[State]:
+    """One step of the climb: its states, as :func:`climb`'s."""
+    stop = _stop_before(ctx, state)
+    if stop is not None:
+        yield replace(state, stop=stop)
+        return
+    number, added = len(state.rungs) + 1, ctx.added(state.model.plant)
+    ahead = state.ahead
+    tried = ahead.tried if ahead is not None and ahead.fitted is state.model else tuple(
+        screen(ctx, state.model, state.refitted, number))
+    state = replace(state, ahead=None, first_tried=state.first_tried or tried)
+    yield state
+    best = tried[0] if tried and tried[0].ok else None
+    if ctx.plan.frees and state.calibration is None:
+        calibrated = _calibration(ctx, state, best, added, number)
+        if calibrated is not None:  # not a rung: the effects are tried again on the calibrated plant
+            yield calibrated
+            yield from _prune(ctx, calibrated, "the calibration", number)
+            return
+    if best is None or not ctx.policy.accepts(ctx.scorer, state.model, best.result):
+        yield replace(state, stop=Stop("noise floor" if ctx.policy.explained(state.model) else "nothing pays",
+                                       True, best, bool(tried)))
+        return
+    pair, unfitted, ahead = (_pairs(ctx, state, best, tried, added, number)
+                             if len(state.rungs) + 2 <= ctx.max_steps else (None, 0, None))
+    ctx.tracker.stage("simplify", number)
+    state = (_add(ctx, state, best, tried, ahead) if pair is None
+             else _add_pair(ctx, state, Joint(pair, best, unfitted, True), tried, added))
+    yield state
+    after = (best if pair is None else pair.second).candidate.label()
+    for state in _prune(ctx, state, after, number):
+        yield state
+    yield replace(state, steps=state.steps + 1, ahead=ahead)
+
+
+def screen(ctx: Context, res: FitResult, refitted: tuple, number: int) -> list[Tried]:
+    """A rung's candidates ranked: each fitted with the model's effects and calibrated values held
+    (cheap), then the best ``joint_top`` refitted with them."""
+    model = res.plant
+    added = ctx.added(model)
+    cands = candidates(model, ctx.replay, ctx.only)
+    tried = rank(fit_each(ctx.replay, ctx.scorer, model, cands, ctx.workers,
+                          ctx.tracker.stage("candidates", number, len(cands)),
+                          Trial(free_plant=ctx.free_plant, rounds_below=res.rss)))
+    if added:
+        top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:ctx.policy.joint_top] if t.ok]
+        joint = fit_each(ctx.replay, ctx.scorer, model, top, ctx.workers,
+                         ctx.tracker.stage("joint refit", number, len(top)), Trial(free_plant=refitted, refit=added))
+        tried = rank(joint + tried[len(top):])
+    return tried
+
+
+def _model(plant: Plant, free_plant) -> tuple[list, dict]:
+    """A rung's ``model`` (effects as in a plant file) and ``plant_params`` (the free plant values)."""
+    return [e.to_dict() for e in plant.effects], {f.name: get_value(plant, f) for f in plant_frees(plant, free_plant)}
+
+
+def correlated(res: FitResult) -> list[dict]:
+    """``[{a, b, rho}]``: the fit's pairs of estimates correlated beyond ``STRONG_CORRELATION``."""
+    return [{"a": a, "b": b, "rho": rho} for a, b, rho in strong_correlations(res.correlation)]
+
+
+def _added_rung(state: State, t: Tried, result: FitResult, before: FitResult, **why) -> Rung:
+    """The rung that adds candidate ``t``; ``result`` the model after it."""
+    return Rung("add", t.candidate.name, t.candidate.options, t.params, t.stderr, result,
+                *_model(result.plant, state.refitted), before, t, correlations=correlated(t.result), **why)
+
+
+def _with_rung(state: State, rung: Rung, model: FitResult | None = None) -> State:
+    """``state`` with ``rung`` added; with ``model``, its effect the model's last."""
+    owners = state.owners + (len(state.rungs),) if rung.action == "add" else state.owners
+    return replace(state, rungs=state.rungs + (rung,), owners=owners, model=model or state.model)
+
+
+def _simplified(ctx: Context, state: State, fitted: FitResult, notes) -> tuple[Simplified, ...]:
+    """``_simplify``'s notes as :class:`Simplified` records, each naming the rung that added it."""
+    first = len(ctx.plant.effects)
+    return tuple(Simplified(state.owners[i - first], old, new, gain,
+                            {k: v for k, v in fitted.plant.effects[i].values.items() if not isinstance(v, str)})
+                 for i, old, new, gain in notes)
+
+
+def _add(ctx: Context, state: State, best: Tried, tried, ahead: Ahead | None) -> State:
+    """``state`` with the rung that adds ``best`` alone (simplified; the look-ahead's fit when it
+    was made, ``ahead``)."""
+    fitted, notes = (ahead.fitted, ahead.notes) if ahead is not None else _alone(ctx, state, best)
+    rung = _added_rung(state, best, fitted, state.model, tried=tuple(tried))
+    state = _with_rung(state, rung, fitted)
+    return _with_notes(ctx, state, fitted, notes)
+
+
+def _with_notes(ctx: Context, state: State, fitted: FitResult, notes) -> State:
+    """``state`` whose last rung carries ``notes`` of the simplification that gave ``fitted``."""
+    if not notes:
+        return state
+    last = replace(state.rungs[-1], simplified=_simplified(ctx, state, fitted, notes))
+    return replace(state, rungs=state.rungs[:-1] + (last,))
+
+
+def _add_pair(ctx: Context, state: State, joint: Joint, tried, added: tuple[int, ...]) -> State:
+    """``state`` with the two rungs of ``joint``'s pair: its first member (its single fit), then
+    the second with the joint fit, simplified."""
+    pair = joint.pair
+    first, second = pair.first, pair.as_second()
+    state = _with_rung(state, _added_rung(state, first, first.result, state.model, tried=tuple(tried), joint=joint))
+    n = len(state.model.plant.effects)
+    fitted, notes = _simplify(ctx, pair.result, added + (n, n + 1), state.refitted)
+    state = _with_rung(state, _added_rung(state, second, fitted, first.result, joint=replace(joint, first=False)),
+                       fitted)
+    return _with_notes(ctx, state, fitted, notes)
+
+
+def _alone(ctx: Context, state: State, best: Tried) -> tuple[FitResult, list]:
+    """The model with ``best`` added alone, simplified (:func:`_simplify`: the result and its notes)."""
+    added = ctx.added(state.model.plant) + (len(state.model.plant.effects),)
+    return _simplify(ctx, best.result, added, state.refitted)
+
+
+def _look_ahead(ctx: Context, state: State, best: Tried, number: int) -> Ahead:
+    """The next rung's screen (step ``number``) on the model with ``best`` alone (simplified)."""
+    fitted, notes = _alone(ctx, state, best)
+    tried = tuple(screen(ctx, fitted, state.refitted, number))
+    nxt = tried[0] if tried and tried[0].ok else None
+    reaches = (nxt is not None and ctx.policy.explained(nxt.result)
+               and ctx.policy.accepts(ctx.scorer, fitted, nxt.result))
+    return Ahead(fitted, tuple(notes), tried, reaches)
+
+
+def fit_pairs(jobs: list, policy: Policy, workers: Executor, progress, ahead) -> tuple[list[Pair], Ahead | None]:
+    """The pairs of ``jobs`` (:func:`~gearbench.identify.candidates.pair_jobs`) fitted jointly,
+    ``policy.pair_batch`` at a time, until a batch ends with a pair within ``at_noise`` of the noise
+    floors.  Past the noise floors another pair could only tie on the error, and the pairs come in
+    the order of their members' ranks.  What this gives up: a later pair at the floors with fewer
+    parameters, which the BIC would prefer by ln n per parameter; the simplification recovers it
+    where it is the simpler form of the same effect (Coulomb for Stribeck friction).  The batches
+    are fixed (not the workers' count), so the answer does not depend on how many ran.
+
+    ``ahead(batch)``: called once with the first batch, when more remain and none of it reached
+    the floors; it returns the next rung's screen (:class:`Ahead`, or None when it was not made),
+    which ends the pairs when it ``reaches`` the floors.  Returns the pairs fitted and the screen."""
+    out: list[Pair] = []
+    looked = None
+    for start in range(0, len(jobs), policy.pair_batch):
+        out += run_jobs(run_pair, jobs[start:start + policy.pair_batch], workers, progress)
+        if any(p.ok and policy.explained(p.result) for p in out):
+            break
+        if start == 0 and len(jobs) > policy.pair_batch:
+            looked = ahead(out)
+            if looked is not None and looked.reaches:
+                break
+    return out, looked
+
+
+def _pairs(ctx: Context, state: State, best: Tried, tried, added: tuple[int, ...],
+           number: int) -> tuple[Pair | None, int, Ahead | None]:
+    """The pair of lowest BIC when it beats both the current model and the best single candidate
+    by ``Policy.accepts`` (else None: none does, or the best single already explains the record
+    down to its noise, nothing left for a pair to resolve), how many pairs were left unfitted, and
+    the next rung's screen on the best single alone when it was made: when none of the first batch
+    pays.  If that screen's best is at the floors, the greedy ladder reaches them in two rungs
+    where no pair is, and the pairs end there with none (a delay that ranks low alone beside
+    Coulomb friction: 14 pairs fitted for nothing)."""
+    policy, model = ctx.policy, state.model
+    if policy.explained(best.result) or policy.explained(model):
+        return None, 0, None
+
+    def pays(p: Pair) -> bool:
+        return p.ok and policy.accepts(ctx.scorer, model, p.result) and policy.accepts(ctx.scorer, best.result, p.result)
+    jobs = pair_jobs(ctx.replay, ctx.scorer, model.plant, tried, state.refitted, added, policy.pair_top)
+    fitted, ahead = fit_pairs(jobs, policy, ctx.workers, ctx.tracker.stage("pairs", number, len(jobs)),
+                              lambda batch: None if any(pays(p) for p in batch) else
+                              _look_ahead(ctx, state, best, number + 1))
+    unfitted = len(jobs) - len(fitted)
+    pairs = [p for p in fitted if p.ok]
+    if not pairs or (ahead is not None and ahead.reaches):
+        return None, unfitted, ahead
+    pair = min(pairs, key=lambda p: p.result.bic)
+    return (pair if pays(pair) else None), unfitted, ahead
+
+
+def _simplify(ctx: Context, res: FitResult, added: tuple[int, ...], free_plant) -> tuple[FitResult, list]:
+    """Replace each added effect by its simpler form (``Effect.simpler``: Stribeck
+    by Coulomb, asymmetric by symmetric friction) when, refitted with the others,
+    the BIC says the extra parameters do not pay.  Returns the result and notes
+    ``(effect number, old name, new name, BIC gain)``."""
+    notes = []
+    for i in added:
+        e = res.plant.effects[i]
+        simpler = e.effect.simpler(e.values)
+        if simpler is None:
+            continue
+        effects = list(res.plant.effects)
+        effects[i] = AddedEffect(*simpler)
+        r = refit(ctx.replay, ctx.scorer, replace(res.plant, effects=tuple(effects)), free_plant, added)
+        if r is not None and r.bic <= res.bic:
+            notes.append((i, e.name, simpler[0], res.bic - r.bic))
+            res = r
+    return res, notes
+
+
+def _calibration(ctx: Context, state: State, best: Tried | None, added: tuple[int, ...],
+                 number: int) -> State | None:
+    """``state`` calibrated, when the calibration pays (``Policy.accepts``) and explains more than
+    the best candidate (it pays no less: the lower BIC wins); else None."""
+    ctx.tracker.stage("calibration", number)
+    model, accepts = state.model, ctx.policy.accepts
+    cal = calibrate(ctx, model, state.refitted, added)
+    if cal is None or not accepts(ctx.scorer, model, cal) or not (
+            best is None or not accepts(ctx.scorer, model, best.result) or cal.bic <= best.result.bic):
+        return None
+    return replace(state, model=cal, calibration=CalibrationStep(len(state.rungs), model, cal),
+                   refitted=state.refitted + tuple(ctx.plan.frees))
+
+
+def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) -> FitResult | None:
+    """The datasheet values ``ctx.plan.frees`` fitted with ``free_plant`` and the effects numbered
+    ``added`` (``refit``, central differences, restarts), from the model's values; where that
+    pays (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors,
+    also from the best points of a scan of the tolerance box (``calibration.starts``), the best
+    fit kept.  On 8 s of the bench rig with p04's datasheet errors and Coulomb friction hidden at
+    the load, fitted with the friction: from the file's values 25.9x the noise floors (load
+    inertia 0.00545 kg m^2 for 0.006), from the scan's best points 2.07x, the truth 0.99x; in the
+    ladder, after a pair with a load spring, 0.988x (``tests/test_datasheet.py``)."""
+    replay, scorer, policy, model = ctx.replay, ctx.scorer, ctx.policy, res.plant
+    cal_frees: list[Free] = ctx.plan.frees
+    cal = refit(replay, scorer, model, tuple(free_plant) + tuple(cal_frees), added, central=True,
+                restarts=policy.calibration_restarts)
+    if cal is None or policy.explained(cal) or not policy.accepts(scorer, res, cal):
+        return cal
+    frees = frees_of(replay, model, tuple(cal_frees) + tuple(free_plant), added)
+    fits = [fit(replay, model, frees, scorer, start=list(x), central=True, restarts=policy.calibration_restarts)
+            for x in calibration.starts(replay, scorer, model, frees, len(cal_frees))]
+    return best_fit([cal] + [f for f in fits if f.converged])
+
+
+def removals(replay: Replay, scorer: Scorer, policy: Policy, res: FitResult, first: int,
+             free_plant) -> list[tuple[AddedEffect, FitResult, float]]:
+    """Stepwise backwards: with two or more effects past the plant's own ``first``, each is
+    refitted out (the newest too: it was judged against the model before it, not against the
+    same effects refitted); one whose removal the model with it does not beat by the criterion
+    that added it (``Policy.accepts``) no longer pays and comes out, the one that pays least
+    first, until every effect left pays.  Returns ``(removed effect, model without it, BIC
+    change)``."""
+    out = []
+    while len(res.plant.effects) - first >= 2:
+        options = []
+        for i in range(first, len(res.plant.effects)):
+            effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
+            r = refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)))
+            if r is not None and not policy.accepts(scorer, r, res):
+                options.append((r.bic - res.bic, i, r))
+        if not options:
+            break
+        gain, i, r = min(options, key=lambda o: o[0])
+        out.append((res.plant.effects[i], r, gain))
+        res = r
+    return out
+
+
+def _prune(ctx: Context, state: State, after: str, number: int) -> Iterator[State]:
+    """``state`` after each effect :func:`removals` takes out, a "remove" rung each; ``after``
+    names what came in."""
+    ctx.tracker.stage("prune", number, max(0, len(state.model.plant.effects) - len(ctx.plant.effects)))
+    first = len(ctx.plant.effects)
+    for gone, without, gain in removals(ctx.replay, ctx.scorer, ctx.policy, state.model, first, state.refitted):
+        i = state.model.plant.effects.index(gone) - first
+        rung = Rung("remove", gone.name, {k: v for k, v in gone.values.items() if isinstance(v, str)},
+                    {k: v for k, v in gone.values.items() if not isinstance(v, str)}, {}, without,
+                    *_model(without.plant, state.refitted), state.model, after=after)
+        state = replace(state, rungs=state.rungs + (rung,), owners=state.owners[:i] + state.owners[i + 1:],
+                        model=without)
+        yield state

@@ -1,0 +1,64 @@
+"""Where a diagnosis is, for a progress display: events, and the clock that sends them."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+STAGES = ("baseline", "calibration plan", "candidates", "joint refit", "calibration", "pairs", "simplify",
+          "prune")
+"""The stages of one rung, in order (``ProgressEvent.stage``); the first two come once, before the first."""
+
+
+@dataclass(frozen=True)
+class ProgressEvent:
+    """Where a diagnosis is, for a progress display: ``diagnose(progress=f)`` calls ``f(event)``
+    when a stage starts (``done`` 0) and after each fit of it.
+
+    step: the ladder step being decided (1 = the first rung); stage: one of :data:`STAGES`;
+    done, total: fits finished and to do in this stage; label: the fit just finished, e.g.
+    ``"coulomb_friction (load)"``; best: the best fit of this stage so far, its label and
+    weighted RMS (x the noise floors), "" before the first; elapsed_s: since the diagnosis
+    started, s.  The next step's "candidates" and "joint refit" may come inside a step's "pairs"
+    (the look-ahead, ``ladder``), and then not again at that step."""
+    step: int
+    stage: str
+    done: int
+    total: int
+    label: str = ""
+    best: str = ""
+    elapsed_s: float = 0.0
+
+
+class Tracker:
+    """Sends :class:`ProgressEvent` s to a callback (none: does nothing) and keeps the clock."""
+
+    def __init__(self, callback: Callable[[ProgressEvent], None] | None):
+        self.callback, self.t0 = callback, time.perf_counter()
+
+    @property
+    def elapsed_s(self) -> float:
+        return time.perf_counter() - self.t0
+
+    def stage(self, name: str, step: int, total: int = 1) -> "StageCounter | None":
+        """Announce stage ``name`` of ladder step ``step``, ``total`` fits; returns the callback an
+        executor calls with each finished fit (None without a callback)."""
+        if self.callback is None:
+            return None
+        self.callback(ProgressEvent(step, name, 0, total, "", "", self.elapsed_s))
+        return StageCounter(self, name, step, total)
+
+
+class StageCounter:
+    """Counts one stage's finished fits (each a ``Tried`` or a ``Pair``) and keeps its best by BIC."""
+
+    def __init__(self, tracker: Tracker, name: str, step: int, total: int):
+        self.tracker, self.name, self.step, self.total = tracker, name, step, total
+        self.done, self.best = 0, None
+
+    def __call__(self, item) -> None:
+        self.done += 1
+        if item.ok and (self.best is None or item.result.bic < self.best[0]):
+            self.best = (item.result.bic, f"{item.label()} at {item.result.weighted_rms:.3g}x noise")
+        self.tracker.callback(ProgressEvent(self.step, self.name, self.done, self.total, item.label(),
+                                            self.best[1] if self.best else "", self.tracker.elapsed_s))

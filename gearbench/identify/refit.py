@@ -1,0 +1,38 @@
+"""Refit a model: which of its parameters are free, the joint refit, the best of several fits."""
+from __future__ import annotations
+
+import math
+
+from ..plant.components import Plant
+from .fit import Free, FitResult, evaluate, fit, plant_frees
+from .replay import ReplayError
+
+
+def frees_of(replay, plant: Plant, free_plant, effects) -> list[Free]:
+    """The free plant values ``free_plant`` (paths or ``Free``s), then the parameters of the
+    effects numbered in ``effects``."""
+    frees = plant_frees(plant, free_plant)
+    for j in effects:
+        frees += Free.effect(plant, j, replay.data.sample_time_s)
+    return frees
+
+
+def refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = False,
+          restarts: int = 0) -> FitResult | None:
+    """``plant`` with the free plant values ``free_plant`` (paths or ``Free``s) and the parameters
+    of the effects numbered in ``effects`` fitted jointly (scored as it is when there are none);
+    None when it cannot be simulated or does not converge.  ``central``, ``restarts``: see
+    :func:`gearbench.identify.fit.fit`."""
+    frees = frees_of(replay, plant, free_plant, effects)
+    try:
+        r = (fit(replay, plant, frees, scorer, central=central, restarts=restarts) if frees
+             else evaluate(replay, scorer, plant))
+    except (ReplayError, ValueError):
+        return None
+    return r if r.converged else None
+
+
+def best_fit(results: list[FitResult]) -> FitResult:
+    """The converged fit of lowest RSS (the first, failed, when none converged)."""
+    ok = [r for r in results if r.converged and math.isfinite(r.rss)]
+    return min(ok, key=lambda r: r.rss) if ok else results[0]

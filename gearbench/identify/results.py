@@ -1,0 +1,188 @@
+"""What a diagnosis gives back: the ladder as steps with their sentences, the verdict, the
+noise floors, the residual tests and the calibration, in one :class:`Diagnosis` with the SPEC's
+``diagnose --json`` object (:meth:`Diagnosis.to_json`).  :func:`diagnosis` builds it from the
+climb's last state (``ladder``), writing every sentence there (``explain``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..plant.components import Plant
+from . import calibration
+from .candidates import RANKING, Tried
+from .explain import not_driven, reason, rung_text, simplified_text
+from .fit import FitResult, Scorer
+from .ladder import CalibrationStep, Context, State, correlated
+from .replay import Replay
+from .residuals import DEFAULT_LAGS, replay_residual_tests
+
+STOPPED = ("noise floor", "nothing pays", "max steps", "time limit", "interrupted")
+"""Why a ladder ends (``Diagnosis.stopped``): the model explains the record down to its noise; no
+candidate pays; ``max_steps`` rungs; the ``time_limit_s`` was crossed (after the rung that crossed
+it); Ctrl-C (:class:`DiagnosisInterrupted`)."""
+
+@dataclass(frozen=True)
+class Step:
+    """One rung of the ladder: the effect added, its parameters, the error after
+    it, and the whole refitted model at that point (``model``: effects as in a
+    plant file, ``plant_params``: the free plant parameters)."""
+    effect: str
+    options: dict
+    params: dict
+    stderr: dict
+    error: float
+    relative_error_pct: float
+    bic: float
+    model: list
+    plant_params: dict
+    explanation: str = ""
+    action: str = "add"     # "add", or "remove": an effect of an earlier rung that no longer pays
+    correlations: list = field(default_factory=list)  # strongly correlated estimates (see _correlated)
+
+
+@dataclass
+class Diagnosis:
+    baseline_error: float
+    noise_floor: float
+    unit: str
+    signal: str
+    tried: list[Tried]
+    verdict: str | None
+    ladder: list[Step]
+    reason: str
+    plant: Plant
+    baseline: FitResult
+    baseline_plant: Plant
+    baseline_relative_pct: float
+    calibration: dict = field(default_factory=dict)  # calibration.Plan.report of the final model
+    calibration_step: CalibrationStep | None = None
+    stopped: str = ""  # why the ladder ended: one of STOPPED
+    noise: dict = field(default_factory=dict)  # column -> {floor, unit, stated}
+    residual_tests: dict = field(default_factory=dict)  # column -> residuals.ResidualTest of the final model
+    not_tried: dict = field(default_factory=dict)  # effect -> why it cannot act on this plant and record
+
+    def ladder_steps(self) -> list[dict]:
+        """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
+        calibration of the datasheet values where it came (``action: calibrate``)."""
+        steps = [{"effect": "baseline", "error": self.baseline_error}]
+        for i, s in enumerate(self.ladder + [None]):
+            c = self.calibration_step
+            if c is not None and c.after == i:
+                steps.append({"effect": "calibrated", "error": c.result.error, "action": "calibrate"})
+            if s is not None:
+                steps.append({"effect": s.effect, "error": s.error, "action": s.action})
+        return steps
+
+    def to_json(self) -> dict:
+        """The SPEC's ``diagnose --json`` object (plus units and explanations).
+
+        ``candidates`` are the first rung's, best first by :data:`RANKING`; each carries
+        ``effect``, ``options`` ({} when it has none), ``params``, ``error`` and ``bic``,
+        ``stderr``, ``correlations``, the number ``k`` of fitted parameters, a ``status`` (``ok``, or
+        ``failed`` with ``error`` and ``bic`` null) and a ``message`` saying why it failed.
+        ``calibration``: per datasheet value its file value, final value, standard error,
+        unit, tolerance and status (``calibrated``; ``held``, the record cannot resolve it;
+        ``file value``, calibration did not pay), with a ``message``;
+        ``calibration_step``: when calibration paid, after how many ladder steps, the error
+        after it and its BIC change, else null.
+        ``stopped``: why the ladder ended, one of :data:`STOPPED` (``reason`` says it in words).
+        ``noise_floors``: per compared column its noise ``floor`` (the residuals' weight), ``unit``,
+        and whether it was ``stated`` (``Replay.noise_std``) or read from the record.
+        ``residual_tests``: per compared column, the final model's residual tests
+        (``residuals.ResidualTest``: ``white``, ``input_independent``, ``lag1`` its lag-1
+        autocorrelation, ``ljung_box_p``, ``sentence``).
+        ``not_tried``: the effects of the library (of ``only``) that cannot act on this plant and
+        record, each with why (:func:`not_tried`).
+        ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
+        (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
+        ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
+        return {
+            "ranking": RANKING,
+            "baseline_error": self.baseline_error,
+            "noise_floor": self.noise_floor,
+            "error_signal": self.signal,
+            "error_unit": self.unit,
+            "error_metric": f"RMS of the {self.signal} residual (measured - simulated), {self.unit}",
+            "candidates": [candidate_json(t) for t in self.tried],
+            "verdict": self.verdict,
+            "reason": self.reason,
+            "stopped": self.stopped,
+            "baseline_relative_error_pct": self.baseline_relative_pct,
+            "ladder": [{"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
+                        "params": s.params, "stderr": s.stderr, "error": s.error,
+                        "relative_error_pct": s.relative_error_pct, "model": s.model,
+                        "plant_params": s.plant_params, "explanation": s.explanation,
+                        "correlations": s.correlations}
+                       for s in self.ladder],
+            "noise_floors": self.noise,
+            "residual_tests": {name: {"input": t.input_name, "white": t.white,
+                                      "input_independent": t.input_independent,
+                                      "lag1": float(t.autocorrelation[1]), "ljung_box_p": t.ljung_box_p,
+                                      "sentence": t.sentence()}
+                               for name, t in self.residual_tests.items()},
+            "not_tried": self.not_tried,
+            "calibration": self.calibration,
+            "calibration_step": None if self.calibration_step is None else {
+                "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
+                "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
+        }
+
+
+def candidate_json(t: Tried) -> dict:
+    """One candidate of ``diagnose --json`` (:meth:`Diagnosis.to_json`)."""
+    d = {"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
+         "error": t.result.error if t.ok else None, "bic": t.result.bic if t.ok else None,
+         "stderr": t.stderr if t.ok else {}, "correlations": correlated(t.result) if t.ok else [],
+         "k": t.result.k if t.ok else None,
+         "status": "ok" if t.ok else "failed"}
+    if t.note or not t.ok:
+        d["message"] = t.note or "the fit did not converge"
+    return d
+
+
+def noise(replay: Replay, scorer: Scorer) -> dict:
+    """Per weighed column: its noise floor, unit and whether it was stated."""
+    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std} for n, f in scorer.floors.items()}
+
+
+def residual_tests(replay: Replay, plant: Plant, res: FitResult) -> dict:
+    """The residual tests (``residuals.replay_residual_tests``) of the final model; {} where the
+    windows are too short for them."""
+    sim = res.sim if res.sim is not None else replay.run(plant)
+    try:
+        return replay_residual_tests(replay, plant, replay.residuals(sim), DEFAULT_LAGS)
+    except ValueError:
+        return {}
+
+
+def steps(ctx: Context, state: State) -> list[Step]:
+    """The rungs as the ladder's steps, each with its explanation, and each effect a later
+    rung simplified shown in its simpler form, with a sentence saying when and why."""
+    texts = [rung_text(ctx, r, i + 1) for i, r in enumerate(state.rungs)]
+    shown = [(r.effect, r.params) for r in state.rungs]
+    for i, r in enumerate(state.rungs):
+        for s in r.simplified:
+            shown[s.rung] = (s.new, s.params)
+            texts[s.rung] += simplified_text(s, i + 1)
+    out = []
+    for r, text, (effect, params) in zip(state.rungs, texts, shown):
+        res = r.result
+        out.append(Step(effect, r.options, params, r.stderr, res.error, ctx.scorer.relative_pct(res.sim), res.bic,
+                        r.model, r.plant_params, text, r.action, r.correlations))
+    return out
+
+
+def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> Diagnosis:
+    """The :class:`Diagnosis` of the climb's last ``state`` (its ``stop`` set) from the baseline ``base``."""
+    ladder = steps(ctx, state)
+    res, scorer, replay = state.model, ctx.scorer, ctx.replay
+    verdict = ladder[state.owners[0]].effect if state.owners else None
+    why = state.stop.why
+    tests = {} if why == "interrupted" else residual_tests(replay, res.plant, res)
+    said = reason(ctx, state)
+    if why == "nothing pays" and not ctx.policy.explained(res):
+        said = not_driven(said, tests, replay)
+    return Diagnosis(base.error, scorer.noise_floor, replay.unit(scorer.primary), scorer.primary,
+                     list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
+                     scorer.relative_pct(base.sim),
+                     ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
+                     why, noise(replay, scorer), tests, not_tried)
