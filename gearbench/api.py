@@ -543,7 +543,7 @@ def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float
     """Plant, record and replay, every argument checked before any solving (as the CLI's ``_setup``)."""
     from .control.sampled import SampledPV
     from .experiment.controller_file import load_controller
-    from .identify.replay import Replay
+    from .identify.replay import Replay, solver_options
     plant = _as_plant(plant, where)
     data = load_measurement(data)
     problems: list[str] = []
@@ -558,7 +558,7 @@ def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float
     if noise_std is not None and not isinstance(noise_std, Mapping):
         _raise(where, [f"noise_std must be a mapping {{column: standard deviation in its unit}}, got "
                        f"{show(noise_std)}"])
-    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3),
+    replay = Replay(data, controller, window_s or None, solver_options(rtol),
                     noise_std=None if noise_std is None else dict(noise_std))
     replay.check(plant)
     return plant, data, replay

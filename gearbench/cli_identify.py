@@ -52,10 +52,9 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noi
     """Plant, record and replay, every file and ``--noise`` checked before any solving."""
     from .experiment.controller_file import load_controller
     from .experiment.files import load_plant
-    from .identify.replay import Replay
+    from .identify.replay import Replay, solver_options
     from .cli_import import context_column_map
     from .measure.data import read_measurement
-    from .simulate import SolverOptions
     plant = load_plant(plant_file)
     data = read_measurement(data_file, context_column_map())
     controller = load_controller(controller_file) if controller_file else None
@@ -67,7 +66,7 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noi
     if noise_from is not None:
         from .identify.replay import noise_at_rest
         stated = {**noise_at_rest(read_measurement(noise_from, context_column_map()), every), **stated}
-    replay = Replay(data, controller, window_s or None, SolverOptions(rtol=rtol, max_step_s=1e-3),
+    replay = Replay(data, controller, window_s or None, solver_options(rtol),
                     noise_std=stated or None)
     replay.check(plant)
     return plant, data, replay

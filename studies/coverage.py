@@ -41,7 +41,7 @@ import numpy as np
 from gearbench.experiment.files import load_plant
 from gearbench.identify import synth as S
 from gearbench.identify.fit import Free, fit, get_value, set_values
-from gearbench.identify.replay import Replay
+from gearbench.identify.replay import Replay, solver_options
 from gearbench.plant.effects import AddedEffect
 from gearbench.report.io import write_text_atomic
 from gearbench.simulate import SolverOptions
@@ -99,7 +99,7 @@ def one(seed: int, rho: float, excitation: str) -> dict:
     frees = frees_of(truth_p)
     truth = np.array([get_value(truth_p, f) for f in frees])
     model = set_values(truth_p, frees, start_values(truth, seed))
-    replay = Replay(data, None, 1.0, SolverOptions(rtol=FIT_RTOL, max_step_s=1e-3))
+    replay = Replay(data, None, 1.0, solver_options(FIT_RTOL))
     t0 = time.perf_counter()
     res = fit(replay, model, frees)
     return {"seed": seed, "converged": res.converged, "wall_s": time.perf_counter() - t0,

@@ -199,12 +199,15 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
 
 
 def test_a_fit_holds_the_replays_resets_while_it_moves():
-    """Within ``resets_frozen`` the replay resets at exactly the seams given, by the drift there;
-    outside, by its rule again.  Coulomb friction (0.5 N m) the plant lacks: the rule resets at
-    most seams; frozen to none, the model drifts on (its error grows); frozen to those, the same
-    replay as the rule's."""
+    """``run(seams=...)`` resets at exactly the seams given, by the drift there; ``seams=None``, by
+    the rule.  Coulomb friction (0.5 N m) the plant lacks: the rule resets at most seams; held at
+    none, the model drifts on (its error grows); held at the rule's own, the same run bit for bit.
+    A run says where it reset (``ReplayRun``) and sets nothing on the replay, which is frozen."""
+    import dataclasses
+
     import numpy as np
 
+    from gearbench.identify.replay import ReplayRun
     from gearbench.identify.synth import excitation, synthesize
     from gearbench.plant.effects import AddedEffect
 
@@ -213,20 +216,31 @@ def test_a_fit_holds_the_replays_resets_while_it_moves():
     rec = synthesize(plant, [AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})], t, u,
                      noise={"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}, seed=0)
     replay = Replay(rec)
-    ruled = replay.run(plant)["load_angle_deg"]
-    seams = replay.reset_at
-    assert len(seams) >= 3 and set(seams) <= {a for a, _ in replay.windows(plant)}
-    with replay.resets_frozen(seams):
-        assert np.array_equal(replay.run(plant)["load_angle_deg"], ruled)
-    with replay.resets_frozen(()):
-        drifting = replay.run(plant)["load_angle_deg"]
-        assert replay.reset_at == ()
-    assert replay.frozen_resets is None
+    windows = replay.windows(plant)
+    before = dict(vars(replay))
+    ruled = replay.run(plant)
+    assert isinstance(ruled, ReplayRun) and list(ruled) == list(rec.signals)
+    assert vars(replay).keys() == before.keys() and all(vars(replay)[k] is v for k, v in before.items())
+    assert replay.windows(plant) is windows
+    seams = ruled.seams
+    assert len(seams) >= 3 and set(seams) <= {a for a, _ in windows}
+    assert ruled.reinitialised_s == tuple(float(replay.t[a]) for a in seams)
+    held = replay.run(plant, seams=seams)
+    assert held.seams == seams and held.reinitialised_s == ruled.reinitialised_s
+    assert all(np.array_equal(held[n], ruled[n]) for n in ruled)
+    drifting = replay.run(plant, seams=())
+    assert drifting.seams == () and drifting.reinitialised_s == ()
     meas = rec.signals["load_angle_deg"]
     # measured 2026-11-26: 63.1 deg RMS drifting, 39.9 deg reset
-    assert np.sqrt(np.mean((meas - drifting) ** 2)) > 1.2 * np.sqrt(np.mean((meas - ruled) ** 2))
-    replay.run(plant)
-    assert replay.reset_at == seams
+    assert np.sqrt(np.mean((meas - drifting["load_angle_deg"]) ** 2)) > 1.2 * np.sqrt(
+        np.mean((meas - ruled["load_angle_deg"]) ** 2))
+    again = replay.run(plant)
+    assert again.seams == seams and all(np.array_equal(again[n], ruled[n]) for n in ruled)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        replay.window_s = 2.0
+    with pytest.raises(TypeError):
+        ruled["load_angle_deg"] = meas  # a run's columns are read, not set
+    assert hash(replay) == hash(replay) and {replay: 1}[replay] == 1
 
 
 def test_a_calibration_starts_again_from_the_best_points_of_its_tolerance_box():

@@ -5,17 +5,17 @@ import numpy as np
 
 from ..measure.phases import classify_phases, error_shares, smoothed_speed
 from .fit import primary_signal
-from .replay import Replay
+from .replay import Replay, ReplayRun
 from .residuals import DEFAULT_LAGS, check_lags, replay_residual_tests
 
 
-def comparison(replay: Replay, plant, sim: dict | None = None, lags: int | None = DEFAULT_LAGS) -> dict:
+def comparison(replay: Replay, plant, sim: ReplayRun | None = None, lags: int | None = DEFAULT_LAGS) -> dict:
     """Per compared column: RMS and maximum error (its unit), noise floor, their
     ratio, relative error (%); the record cut into phases with each phase's
     share of the primary column's squared error; the residual tests of every
     column (:mod:`gearbench.identify.residuals`, ``lags`` samples; None: none);
     the times (s) at which the replay re-initialised the model's angles; the
-    arrays for figures."""
+    arrays for figures.  ``sim``: ``replay``'s run of ``plant``, made here when not given."""
     if lags is not None:
         check_lags(lags, replay.windows(plant))     # before the solving, not after
     sim = sim if sim is not None else replay.run(plant)
@@ -30,9 +30,9 @@ def comparison(replay: Replay, plant, sim: dict | None = None, lags: int | None 
                      "noise_floor": nf, "ratio_to_noise": rms / nf if nf > 0 else float("inf"),
                      "relative_error_pct": float(100 * np.linalg.norm(r) / max(np.linalg.norm(y), 1e-300))})
     primary = primary_signal(replay)
-    name, th = replay._motion(plant)
+    name, th = replay.motion(plant)
     out = {"signals": rows, "primary": primary, "sim": sim, "residuals": res,
-           "reinitialised_s": list(getattr(replay, "reinitialised_s", []))}
+           "reinitialised_s": list(sim.reinitialised_s)}
     if lags is not None:
         out["residual_tests"] = replay_residual_tests(replay, plant, res, lags)
     if th is not None:

@@ -138,7 +138,7 @@ class Evidence:
         self.replay = replay
         self.sim = sim
         self.residuals = replay.residuals(sim)
-        _, th = replay._motion(plant)
+        _, th = replay.motion(plant)
         self.position = th
         self.t = replay.t
         self.dt = float(np.median(np.diff(self.t)))

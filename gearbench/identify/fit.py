@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -247,7 +248,7 @@ class FitResult:
     correlation: dict = field(default_factory=dict)  # name -> name -> correlation of the two estimates
     units: dict = field(default_factory=dict)  # name -> unit of the value and its standard error
     stderr_white: dict = field(default_factory=dict)  # the white-residual formula's, for comparison only
-    seams: tuple = ()  # the window seams (first samples) at which its replay moved the angles (Replay.reset_at)
+    seams: tuple = ()  # the window seams (first samples) at which its replay moved the angles (ReplayRun.seams)
     rescored: dict = field(default_factory=dict, repr=False, compare=False)  # seams -> the plant scored there
 
     @property
@@ -261,12 +262,13 @@ class FitResult:
         return self.n * math.log(max(self.rss, 1e-300) / self.n) + self.k * math.log(self.n)
 
 
-def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0) -> FitResult:
-    """Score a plant as it is (no fitting)."""
-    sim = replay.run(plant)
+def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0, seams: tuple | None = None) -> FitResult:
+    """Score a plant as it is (no fitting), the replay's angles moved where its rule says (``seams``
+    None) or at exactly ``seams`` (:meth:`Replay.run`)."""
+    sim = replay.run(plant, seams=seams)
     w = scorer.weighted(sim)
     return FitResult(plant, {}, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim,
-                     scorer.per_signal(sim), seams=replay.reset_at)
+                     scorer.per_signal(sim), seams=sim.seams)
 
 
 POOR_STEP = 0.1
@@ -389,6 +391,41 @@ RESTART_GAIN = 1e-3
 fraction."""
 
 
+@dataclass
+class _Trials:
+    """A fit's replays of ``plant`` with ``frees`` at scaled fit coordinates ``z`` (values
+    ``z * scales``), and why those that failed did."""
+    replay: Replay
+    scorer: Scorer
+    plant: Plant
+    frees: list
+    scales: np.ndarray
+    failures: list = field(default_factory=list)
+    size: int | None = None  # the residual's length, once a replay has run
+
+    def residual(self, z, seams: tuple) -> np.ndarray:
+        """The weighted residual at ``z``, the replay's angles moved at exactly ``seams``."""
+        try:
+            sim = self.replay.run(set_values(self.plant, self.frees, z * self.scales), seams=seams)
+            r = self.scorer.weighted(sim)
+            self.size = r.size
+            return r
+        except ReplayError as exc:
+            self.failures.append(str(exc))
+            # a solver failure is a very bad fit, not a crash of the fit
+            return np.full(self.size or 1, 1e6)
+
+    def settle(self, z) -> tuple[tuple[int, ...], float]:
+        """The seams the replay resets at ``z`` by its own rule, and the RSS there."""
+        try:
+            run = self.replay.run(set_values(self.plant, self.frees, z * self.scales))
+            w = self.scorer.weighted(run)
+        except ReplayError as exc:
+            self.failures.append(str(exc))
+            return (), math.inf
+        return run.seams, float(w @ w)
+
+
 def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None = None,
         max_nfev: int | None = None, start: list[float] | None = None, central: bool = False,
         restarts: int = 0, rounds_below: float | None = None) -> FitResult:
@@ -400,7 +437,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     backlash's impacts make the residual curve within a 0.1 % step), with central ones 0.970x.
 
     The least squares runs in rounds, each with the replay's window resets held where they are
-    at its start (``Replay.resets_frozen``): the test that decides whether a seam resets switches
+    at its start (``Replay.run(seams=...)``): the test that decides whether a seam resets switches
     on and off as the parameters move, and the RSS jumps there.  Where the resets at a round's
     end are not those it was fitted with, one more round starts from there; a round that ends
     worse by the replay's own resets (or does not converge) is dropped.  The result is scored
@@ -433,36 +470,15 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     lo = np.array([f.low for f in frees]) / sc
     hi = np.array([f.high for f in frees]) / sc
     z0 = np.clip(x0 / sc, lo, hi)
-    n_res = None
-    failures = []
-
-    def residual(z):
-        nonlocal n_res
-        try:
-            r = scorer.weighted(replay.run(set_values(plant, frees, z * sc)))
-            n_res = r.size
-            return r
-        except ReplayError as exc:
-            failures.append(str(exc))
-            # a solver failure is a very bad fit, not a crash of the fit
-            return np.full(n_res or 1, 1e6)
-
-    def settle(z) -> tuple[tuple[int, ...], float]:
-        """The seams the replay resets at ``z`` by its own rule, and the RSS there."""
-        try:
-            w = scorer.weighted(replay.run(set_values(plant, frees, z * sc)))
-        except ReplayError as exc:
-            failures.append(str(exc))
-            return (), math.inf
-        return replay.reset_at, float(w @ w)
+    trials = _Trials(replay, scorer, plant, frees, sc)
 
     nfev, kept, rounds = 0, None, 0
     try:
-        seams, _ = settle(z0)
+        seams, _ = trials.settle(z0)
         for rounds in range(max(restarts, 1) + 1):
-            with replay.resets_frozen(seams):
-                res = secant_least_squares(residual, z0, (lo, hi), central, max_nfev or 40 * (len(frees) + 1))
-            after, rss_after = settle(res.x)
+            res = secant_least_squares(partial(trials.residual, seams=seams), z0, (lo, hi), central,
+                                       max_nfev or 40 * (len(frees) + 1))
+            after, rss_after = trials.settle(res.x)
             nfev += res.nfev + 1
             if kept is not None and (res.status <= 0 or rss_after > kept[1]):
                 res = kept[0]  # worse, or it did not converge: keep the round it started from
@@ -497,9 +513,9 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     msg = res.message if converged else f"did not converge: {res.message}"
     if rounds:
         msg += f" (restarted {rounds}x)"
-    if failures and converged:
-        msg += f" ({len(failures)} trial simulation(s) failed on the way)"
+    if trials.failures and converged:
+        msg += f" ({len(trials.failures)} trial simulation(s) failed on the way)"
     values = {f.name: param_value(fitted, f) for f in frees}
     return FitResult(fitted if converged else plant, values, stderr, scorer.error(sim), rss, n, k,
                      converged, msg, nfev, sim, scorer.per_signal(sim), correlation=correlation,
-                     stderr_white=white, units={f.name: f.unit for f in frees}, seams=replay.reset_at)
+                     stderr_white=white, units={f.name: f.unit for f in frees}, seams=sim.seams)

@@ -64,10 +64,9 @@ class Policy:
 
 def at_seams(scorer: Scorer, res: FitResult, seams: tuple) -> FitResult:
     """``res``'s plant scored with the replay's angles moved at exactly ``seams``
-    (``Replay.resets_frozen``), its ``k`` kept; made once per seams (``FitResult.rescored``)."""
+    (``Replay.run(seams=...)``), its ``k`` kept; made once per seams (``FitResult.rescored``)."""
     if seams == res.seams:
         return res
     if seams not in res.rescored:
-        with scorer.replay.resets_frozen(seams):
-            res.rescored[seams] = evaluate(scorer.replay, scorer, res.plant, res.k)
+        res.rescored[seams] = evaluate(scorer.replay, scorer, res.plant, res.k, seams=seams)
     return res.rescored[seams]

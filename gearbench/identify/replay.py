@@ -12,6 +12,8 @@ window's start the angle states are moved by the model's drift, measured minus
 simulated position over the previous window's last samples fitted by a straight
 line (so the reset does not carry one sample's noise), when that drift is
 significant; the speeds, current and mesh state run on from the previous window.
+A run returns where it moved them with its columns (:class:`ReplayRun`); the replay itself
+is frozen, so one run's resets cannot be read as another's.
 
 The noise of each compared column is read from the record (``measure.noise.noise_floor``,
 from its third differences, which assumes the noise is white) unless it is stated
@@ -21,7 +23,7 @@ and the level of its slow part cannot be read from a record of a moving machine.
 """
 from __future__ import annotations
 
-from contextlib import contextmanager
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 import math
@@ -48,6 +50,13 @@ records of ``benchmarks/bench_ladder.py``), was 295,000 steps per simulated seco
 compliance); stick-slip friction on the rotor of the bench rig written without clearance chatters at 1.5
 million, and with the solver's own budget (20 million steps a run) each such replay ran 50 s before
 failing."""
+MAX_STEP_S = 1e-3
+"""A replay's largest solver step, s."""
+
+
+def solver_options(rtol: float = 1e-6) -> SolverOptions:
+    """A replay's solver options: relative tolerance ``rtol``, steps of at most :data:`MAX_STEP_S`."""
+    return SolverOptions(rtol=rtol, max_step_s=MAX_STEP_S)
 
 
 class ReplayError(RuntimeError):
@@ -88,7 +97,26 @@ def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int 
             float(np.sqrt(cov[-2, -2] * s2)))
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
+class ReplayRun(Mapping):
+    """The simulated columns of one :meth:`Replay.run`, by name (``sim[name]``, ``sim.items()``),
+    and where that run moved the model's angles to the record's: ``seams``, the window seams'
+    first sample numbers, and ``reinitialised_s``, their times (s from the record's start)."""
+    columns: dict
+    seams: tuple[int, ...] = ()
+    reinitialised_s: tuple[float, ...] = ()
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.columns)
+
+    def __len__(self) -> int:
+        return len(self.columns)
+
+
+@dataclass(frozen=True, eq=False)
 class Replay:
     """How to simulate ``data`` with a plant.
 
@@ -101,26 +129,30 @@ class Replay:
     measurement noise's standard deviation of some compared columns, each in its column's
     unit, where it is known (a record of the machine at rest, a sensor's datasheet): it is
     their noise floor (:meth:`noise_floor`) and the least drift a window's reset acts on.
+
+    Frozen: a run returns what it found (:class:`ReplayRun`) and sets nothing here.  Equal and
+    hashed by identity (it holds the record's arrays).
     """
     data: Measurement
     controller: object | None = None
     window_s: float | None = 1.0
-    options: SolverOptions = field(default_factory=lambda: SolverOptions(rtol=1e-6, max_step_s=1e-3))
+    options: SolverOptions = field(default_factory=solver_options)
     start_moving: bool | None = None
     noise_std: dict | None = None
+    t0: float = field(init=False, repr=False)
+    t: np.ndarray = field(init=False, repr=False)
+    _windows: dict = field(init=False, repr=False, default_factory=dict)  # "found": windows(), once
 
     def __post_init__(self):
         t = self.data.time_s
-        self.t0 = float(t[0])
-        self.t = t - self.t0
+        object.__setattr__(self, "t0", float(t[0]))
+        object.__setattr__(self, "t", t - self.t0)
         if self.start_moving is None:
-            self.start_moving = self.controller is not None
+            object.__setattr__(self, "start_moving", self.controller is not None)
         if self.controller is not None and self.data.setpoint is None:
             raise ReplayError(f"{self.data.source}: a closed-loop replay needs a set point column "
                               "(setpoint_deg or setpoint_mm)")
-        self.noise_std = self._checked_noise(self.noise_std)
-        self.frozen_resets: frozenset | None = None
-        self.reset_at: tuple[int, ...] = ()
+        object.__setattr__(self, "noise_std", self._checked_noise(self.noise_std))
 
     def _checked_noise(self, stated) -> dict[str, float]:
         if stated is None:
@@ -139,21 +171,6 @@ class Replay:
         if problems:
             raise ReplayError("; ".join(problems))
         return {name: float(std) for name, std in stated.items()}
-
-    @contextmanager
-    def resets_frozen(self, seams):
-        """Within it, :meth:`run` moves the angles at exactly the window seams (first samples)
-        ``seams``, each by its drift, whatever the drift's significance.  A fit does its least
-        squares so: the test of significance switches a seam's reset on or off as the parameters
-        move, and the residual jumps there (on the bench rig with p04's datasheet errors, the
-        motor angle's error along the straight line from where the calibration stopped to the
-        truth went 1.77, 1.95, ..., 1.47, 1.59, 1.18x the noise), which stalled the fit in false
-        minima."""
-        before, self.frozen_resets = self.frozen_resets, frozenset(seams)
-        try:
-            yield self
-        finally:
-            self.frozen_resets = before
 
     @property
     def closed_loop(self) -> bool:
@@ -188,8 +205,9 @@ class Replay:
                 raise ReplayError(f"{self.data.source}: column {name} needs a plant with a leadscrew")
 
     # ---------------------------------------------------------------- state
-    def _motion(self, plant: Plant):
-        """Measured output angle (rad) from the best position signal, or None."""
+    def motion(self, plant: Plant):
+        """``(column, measured output angle in rad)`` from the best position signal (the motor's
+        angle or position first), or ``(None, None)``."""
         for name in ("motor_angle_deg", "motor_position_mm", "load_angle_deg", "load_position_mm"):
             if name in self.data.signals:
                 return name, S.to_output_rad(name, self.data.signals[name], plant)
@@ -208,7 +226,7 @@ class Replay:
         first samples cannot tell a moving start from a fast start out of rest.
         """
         x = rest_state(plant)
-        _, th = self._motion(plant)
+        _, th = self.motion(plant)
         if th is not None and self.start_moving:
             _, w, _, _ = local_fit(self.t, th, 0, 20, 1)
             n = plant.gear.ratio
@@ -219,13 +237,15 @@ class Replay:
                 x[L.X_I] = (float(self.data.input[0]) - m.back_emf_constant * w * n) / m.resistance
         return x
 
-    def _reset_angles(self, x: np.ndarray, a: int, plant: Plant, out_prev: np.ndarray, motion) -> bool:
-        """Move the angle states by the model's drift at sample ``a``, when it is significant.
+    def _reset_angles(self, x: np.ndarray, a: int, plant: Plant, out_prev: np.ndarray, motion,
+                      seams: frozenset | None) -> bool:
+        """Move the angle states by the model's drift at sample ``a``, when it is significant
+        (``seams`` None), or when ``a`` is one of ``seams`` (see :meth:`run`).
 
         The drift is measured minus simulated position (output rad) over the last
         ``RESET_SAMPLES`` samples of the previous window (``out_prev``, its sampled outputs),
         fitted by a straight line in time and evaluated at sample ``a``, with that value's
-        standard error (``motion``: :meth:`_motion`'s); the states move only past 5 standard
+        standard error (``motion``: :meth:`motion`'s); the states move only past 5 standard
         errors, so a right model is left alone.  Where the motion signal's noise is stated
         (``noise_std``), the standard error is at least that noise: its colour is not known, and
         coloured noise moves the last samples together, so their line's end is as far off as one
@@ -250,7 +270,7 @@ class Replay:
         se = float(np.sqrt(cov[-1, -1] * (r @ r) / (m - 2)))
         if name in self.noise_std:
             se = max(se, float(abs(S.to_output_rad(name, self.noise_std[name], plant))))
-        move = abs(drift) > 5.0 * se if self.frozen_resets is None else a in self.frozen_resets
+        move = abs(drift) > 5.0 * se if seams is None else a in seams
         if move:
             x[L.X_THM] += plant.gear.ratio * drift
         return move
@@ -286,18 +306,24 @@ class Replay:
         window is at least half a window long (a 16.11 s record once ended in one of
         29 samples, too short for the residual tests' default lags).  They depend on
         the record alone (a plant scales the measured speed by a positive factor, which
-        moves no minimum), so they are found once per replay: smoothing the record's
-        speed at every run took 11 % of a diagnosis.
+        moves no minimum), so they are found once per replay, with the first plant given: smoothing
+        the record's speed at every run took 11 % of a diagnosis.  Not when the replay is built,
+        from the record's own units: the scale moves no minimum but does move the rounding, and
+        an encoder-quantised record gives neighbouring samples the same smoothed speed, a tie
+        the rounding breaks one way in rad and the other in degrees (a 6 s ``steps`` record of
+        ``thesis_gear`` with 1024 counts per revolution, windows of 0.5 s: a seam at sample 2190
+        in rad, 2191 in degrees).
         """
-        if getattr(self, "_windows", None) is None:
-            self._windows = self._find_windows(plant)
-        return self._windows
+        found = self._windows.get("found")
+        if found is None:
+            found = self._windows.setdefault("found", self._find_windows(plant))
+        return found
 
     def _find_windows(self, plant: Plant) -> list[tuple[int, int]]:
         n = len(self.t)
         if self.closed_loop or not self.window_s:
             return [(0, n)]
-        _, th = self._motion(plant)
+        _, th = self.motion(plant)
         speed = np.abs(smoothed_speed(self.t, th)[0]) if th is not None else np.zeros(n)
         edges = [0]
         while True:
@@ -310,25 +336,31 @@ class Replay:
         edges.append(n)
         return list(zip(edges[:-1], edges[1:]))
 
-    def run(self, plant: Plant, label: str = "") -> dict[str, np.ndarray]:
-        """Simulated columns (``compared()``) at the record's samples, in its units,
-        sensor effects applied.  Raises :class:`ReplayError` if the solver fails.
-        Afterwards ``reinitialised_s`` lists the times (s from the record's start) at
-        which this run moved the model's angles to the record's, and ``reset_at`` those
-        seams' sample numbers (see :meth:`resets_frozen`)."""
+    def run(self, plant: Plant, seams=None, label: str = "") -> ReplayRun:
+        """Simulated columns (``compared()``) at the record's samples, in its units, sensor
+        effects applied, with the seams at which this run moved the model's angles to the
+        record's (:class:`ReplayRun`).  Raises :class:`ReplayError` if the solver fails.
+
+        ``seams`` None: a seam moves them when the model's drift there is significant
+        (:meth:`_reset_angles`).  Given (window seams' first samples, e.g. an earlier run's
+        ``seams``): they move at exactly those, each by its drift, whatever its significance.
+        A fit does its least squares so: the test of significance switches a seam's reset on or
+        off as the parameters move, and the residual jumps there (on the bench rig with p04's
+        datasheet errors, the motor angle's error along the straight line from where the
+        calibration stopped to the truth went 1.77, 1.95, ..., 1.47, 1.59, 1.18x the noise),
+        which stalled the fit in false minima."""
         self.check(plant)
+        held = None if seams is None else frozenset(seams)
         p = self.pack(plant)
         sc = self.scales(plant)
         x = self.initial_state(plant)
         outs = []
         seg_u = []
-        self.reinitialised_s = []
         moved = []
         windows = self.windows(plant)
-        motion = self._motion(plant) if len(windows) > 1 else None
+        motion = self.motion(plant) if len(windows) > 1 else None
         for a, b in windows:
-            if a > 0 and self._reset_angles(x, a, plant, outs[-1], motion):
-                self.reinitialised_s.append(float(self.t[a]))
+            if a > 0 and self._reset_angles(x, a, plant, outs[-1], motion, held):
                 moved.append(a)
             segs = self._segments(plant, a, b)
             t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
@@ -344,7 +376,6 @@ class Replay:
             seg_u.append(run.meta["segment_input"])
             x = run.meta["x_end"].copy()
             x[L.X_IAE] = x[L.X_ISE] = 0.0
-        self.reset_at = tuple(moved)
         out = np.vstack(outs)
         sim = {}
         for name in self.data.signals:
@@ -354,9 +385,9 @@ class Replay:
             sim[name] = y
         if self.closed_loop:
             sim[self.data.input_name] = np.concatenate(seg_u)
-        return sim
+        return ReplayRun(sim, tuple(moved), tuple(float(self.t[a]) for a in moved))
 
-    def residuals(self, sim: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def residuals(self, sim: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Measured minus simulated, per compared column."""
         res = {}
         for name, y in sim.items():
