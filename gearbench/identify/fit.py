@@ -471,28 +471,42 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     hi = np.array([f.high for f in frees]) / sc
     z0 = np.clip(x0 / sc, lo, hi)
     trials = _Trials(replay, scorer, plant, frees, sc)
-
-    nfev, kept, rounds = 0, None, 0
     try:
-        seams, _ = trials.settle(z0)
-        for rounds in range(max(restarts, 1) + 1):
-            res = secant_least_squares(partial(trials.residual, seams=seams), z0, (lo, hi), central,
-                                       max_nfev or 40 * (len(frees) + 1))
-            after, rss_after = trials.settle(res.x)
-            nfev += res.nfev + 1
-            if kept is not None and (res.status <= 0 or rss_after > kept[1]):
-                res = kept[0]  # worse, or it did not converge: keep the round it started from
-                break
-            gained = kept is None or rss_after < (1.0 - RESTART_GAIN) * kept[1]
-            kept = (res, rss_after)
-            stalled = res.status == 3 and rounds < restarts and gained  # 3: stopped on xtol
-            if res.status <= 0 or (after == seams and not stalled) or (
-                    rounds_below is not None and rss_after >= (1.0 - RESTART_GAIN) * rounds_below):
-                break
-            seams, z0 = after, res.x
+        res, nfev, rounds = _rounds(trials, z0, (lo, hi), central, max_nfev or 40 * (len(frees) + 1), restarts,
+                                    rounds_below)
     except ValueError as exc:
         return FitResult(plant, {}, {}, math.nan, math.nan, 0, len(frees), False,
                          f"the fit could not run: {exc}", 0)
+    return _result(trials, res, nfev, rounds)
+
+
+def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts: int,
+            rounds_below: float | None):
+    """:func:`fit`'s rounds of least squares from ``z0``, each with the resets held where the last
+    ended: the kept round's ``least_squares`` result, the replays spent and the rounds after the first."""
+    nfev, kept, rounds = 0, None, 0
+    seams, _ = trials.settle(z0)
+    for rounds in range(max(restarts, 1) + 1):
+        res = secant_least_squares(partial(trials.residual, seams=seams), z0, bounds, central, max_nfev)
+        after, rss_after = trials.settle(res.x)
+        nfev += res.nfev + 1
+        if kept is not None and (res.status <= 0 or rss_after > kept[1]):
+            res = kept[0]  # worse, or it did not converge: keep the round it started from
+            break
+        gained = kept is None or rss_after < (1.0 - RESTART_GAIN) * kept[1]
+        kept = (res, rss_after)
+        stalled = res.status == 3 and rounds < restarts and gained  # 3: stopped on xtol
+        if res.status <= 0 or (after == seams and not stalled) or (
+                rounds_below is not None and rss_after >= (1.0 - RESTART_GAIN) * rounds_below):
+            break
+        seams, z0 = after, res.x
+    return res, nfev, rounds
+
+
+def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
+    """The :class:`FitResult` of the least squares' end ``res``: the fitted plant scored by the
+    replay's own resets, its standard errors and correlations."""
+    replay, scorer, plant, frees, sc = trials.replay, trials.scorer, trials.plant, trials.frees, trials.scales
     fitted = set_values(plant, frees, res.x * sc)
     try:
         sim = replay.run(fitted)
