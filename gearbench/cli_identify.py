@@ -11,6 +11,7 @@ import click
 from rich.table import Table
 
 from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, parse_noise, stdout
+from .errors import DiagnosisInterrupted, GearbenchError
 
 
 _common = [
@@ -74,13 +75,14 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noi
 
 
 def _errors():
-    """The bad-input errors a command reports with exit status 2; an unreachable ``--scheduler``
-    (``gearbench.workers.SchedulerError``) is a ``ValueError`` among them."""
-    from .experiment.files import ConfigError
-    from .identify.fit import FitError
-    from .identify.replay import ReplayError
-    from .measure.data import MeasurementError
-    return (ConfigError, MeasurementError, ReplayError, FitError, ValueError)
+    """The errors a command reports on stderr and exits with (``cli_common.fail``): 1 for a replay the
+    solver could not finish (``ReplayRunError``, a ``SolverError``), else 2 (bad input).
+
+    ``ValueError`` too, deliberately: the commands' own option checks (``--noise``, ``--effect``)
+    and some checks of the library raise a plain ``ValueError`` for bad input: an unknown effect in
+    ``--only`` (``identify.diagnose``), an effect that cannot act on the plant
+    (``api.fit_candidates``), a column too short for a noise estimate (``measure.noise``)."""
+    return (GearbenchError, ValueError)
 
 
 _scheduler = click.option(
@@ -247,7 +249,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
     cleanly: the ladder so far is printed and the exit status is 130.
     """
-    from .identify.diagnose import DiagnosisInterrupted, diagnose as run_diagnosis
+    from .identify.diagnose import diagnose as run_diagnosis
     from .report.compare import ladder_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:

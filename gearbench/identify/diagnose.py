@@ -421,13 +421,7 @@ class _Tracker:
         return each
 
 
-class DiagnosisInterrupted(KeyboardInterrupt):
-    """Ctrl-C during the ladder: ``diagnosis`` is the ladder as far as it got (its ``stopped`` is
-    ``"interrupted"``).  A KeyboardInterrupt, so code that does not look for it stops as before."""
-
-    def __init__(self, diagnosis: "Diagnosis"):
-        super().__init__("diagnosis interrupted")
-        self.diagnosis = diagnosis
+from ..errors import DiagnosisInterrupted  # noqa: E402,F401 - defined in gearbench.errors, importable here
 
 
 @dataclass

@@ -29,12 +29,13 @@ import math
 import numpy as np
 
 from .. import layout as L
+from ..errors import ReplayError, ReplayRunError
 from ..measure.data import Measurement
 from ..measure.noise import noise_floor, rest_noise
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
-from ..simulate import Segments, SolverError, SolverOptions, failure_message, simulate_packed
+from ..simulate import Segments, SolverOptions, failure_message, simulate_packed
 from . import signals as S
 
 DRIVES = {"voltage_V": "voltage", "drive_torque_Nm": "torque", "drive_force_N": "force"}
@@ -48,14 +49,6 @@ records of ``benchmarks/bench_ladder.py``), was 295,000 steps per simulated seco
 compliance); stick-slip friction on the rotor of the bench rig written without clearance chatters at 1.5
 million, and with the solver's own budget (20 million steps a run) each such replay ran 50 s before
 failing."""
-
-
-class ReplayError(RuntimeError):
-    """A replay that cannot run or failed; the message says which and why."""
-
-
-class ReplayRunError(ReplayError, SolverError):
-    """The solver could not finish the replay (the files were fine; the CLI exits 1, not 2)."""
 
 
 def noise_at_rest(rest: Measurement, columns) -> dict[str, float]:
