@@ -43,9 +43,9 @@ _EXPORTS = {
     "simulate": ".api", "run_experiment": ".api", "compare": ".api", "diagnose": ".api", "fit": ".api",
     # results
     "Simulation": ".api", "Comparison": ".api", "DiagnosisReport": ".api", "FitReport": ".api",
-    # errors
-    "ConfigError": ".experiment.files", "MeasurementError": ".measure.data", "SolverError": ".simulate",
-    "ReplayError": ".identify.replay", "FitError": ".identify.fit", "ProfileError": ".profiles",
+    # errors (gearbench.errors: GearbenchError is the base of every one)
+    "GearbenchError": ".errors", "ConfigError": ".errors", "MeasurementError": ".errors", "SolverError": ".errors",
+    "ReplayError": ".errors", "FitError": ".errors", "ProfileError": ".errors",
 }
 
 __all__ = list(_EXPORTS)

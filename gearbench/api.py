@@ -33,12 +33,13 @@ import pandas as pd
 
 from . import layout as L
 from .control.controllers import Controller
-from .experiment.files import SOLVER, ConfigError, Experiment, load_plant
-from .experiment.schema import Number, check_mapping, show, unknown_key
+from .errors import ConfigError, FitError, GearbenchError, NotConverged, SolverError
+from .experiment.files import Experiment, load_plant
 from .measure.data import COLUMN_UNITS, Measurement, from_frame, read_measurement
 from .plant.components import Plant
 from .profiles import Profile, load_profile
-from .simulate import MAX_SAMPLES, RunResult, Segments, SolverError, SolverOptions, failure_message
+from .schema import Number, check_mapping, show, unknown_key
+from .simulate import MAX_SAMPLES, SOLVER, RunResult, Segments, SolverOptions, failure_message
 from .simulate import simulate as _simulate
 from .blas import single_threaded
 
@@ -452,7 +453,7 @@ def simulate(plant: Plant | str | Path | Mapping, controller: Controller | Mappi
     ...             duration_s=-1.0)
     Traceback (most recent call last):
     ...
-    gearbench.experiment.files.ConfigError: simulate: duration_s must be a positive number in s, got -1.0
+    gearbench.errors.ConfigError: simulate: duration_s must be a positive number in s, got -1.0
     """
     where = "simulate"
     plant = _as_plant(plant, where)
@@ -855,12 +856,12 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     ------
     ConfigError, MeasurementError, ReplayError
         As :func:`compare`; an unknown effect in ``only`` is named.
-    gearbench.identify.diagnose.DiagnosisInterrupted
+    gearbench.errors.DiagnosisInterrupted
         On Ctrl-C during the ladder (a ``KeyboardInterrupt``): its ``diagnosis`` is the
         ladder so far.
     SchedulerError
         ``scheduler`` is malformed or nothing answers there
-        (:class:`gearbench.workers.SchedulerError`, a ``ValueError``).
+        (:class:`gearbench.errors.SchedulerError`, a ``ValueError``).
 
     Examples
     --------
@@ -1031,7 +1032,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         No place converged; the plant is unchanged.
     SchedulerError
         ``scheduler`` is malformed or nothing answers there
-        (:class:`gearbench.workers.SchedulerError`, a ``ValueError``).
+        (:class:`gearbench.errors.SchedulerError`, a ``ValueError``).
 
     Examples
     --------
@@ -1040,8 +1041,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     >>> f.effect, round(f.error_before, 1), round(f.error_after, 2), f.unit   # RMS of the load angle
     ('load_spring', 212.0, 20.21, 'deg')
     """
-    from .identify.candidates import NotConverged, unknown_effects
-    from .identify.fit import FitError
+    from .identify.candidates import unknown_effects
     where = "fit"
     problems: list[str] = []
     if not isinstance(effect, str):
@@ -1054,8 +1054,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     if isinstance(free, str) or not all(isinstance(s, str) for s in free):
         problems.append(f"free must be a sequence of strings, got {show(free)}")
     _check_scheduler(scheduler, problems)
-    _raise(where, problems)
-    if not problems and isinstance(effect, str):
+    if isinstance(effect, str):
         problems += unknown_effects([effect], "effect")
     _raise(where, problems)
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)

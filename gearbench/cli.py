@@ -13,8 +13,10 @@ from dataclasses import replace
 from pathlib import Path
 
 import click
+
 from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,
                          is_interrupt, stdout)
+from .errors import GearbenchError
 
 
 @click.group(cls=Group, epilog=EXIT_HELP)
@@ -55,8 +57,7 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from .experiment.files import ConfigError, load_experiment
-    from .profiles import ProfileError
+    from .experiment.files import load_experiment
     from .report import tables
     from .report.io import save_figure_atomic, write_csv_atomic, write_text_atomic
     from .report.traces import run_figure, trace_frame
@@ -69,7 +70,9 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
             reference = tables.read_reference(exp.reference)
         else:
             reference = None
-    except (ConfigError, ProfileError, ValueError) as exc:
+    except (GearbenchError, ValueError) as exc:
+        # ValueError too, deliberately: a reference table without the needed columns
+        # (report.tables.read_reference) or one pandas cannot parse is bad input as well
         _fail(exc)
     if method or rtol:
         exp = replace(exp, solver=replace(exp.solver, method=method or exp.solver.method,
@@ -137,12 +140,12 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
 def info(plant_file: Path, as_json: bool) -> None:
     """Derived figures of a plant: mesh and shaft natural frequencies, time
     constants, stall torque, no-load speed (top speed for a leadscrew)."""
-    from .experiment.files import ConfigError, load_plant
+    from .experiment.files import load_plant
     from .plant.linear import plant_info
 
     try:
         plant = load_plant(plant_file)
-    except ConfigError as exc:
+    except GearbenchError as exc:
         _fail(exc)
     data = plant_info(plant)
     if as_json:

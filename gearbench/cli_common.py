@@ -26,6 +26,7 @@ from typing import NoReturn
 import click
 from rich.console import Console
 
+from .errors import SolverError
 from .interrupts import is_interrupt  # noqa: F401 - the commands take it from here
 
 EXIT_OK = 0
@@ -64,11 +65,11 @@ def stdout() -> Console:
 
 def fail(exc: BaseException, code: int | None = None) -> NoReturn:
     """Print ``error: <exc>`` on stderr and exit: 1 for a run the solver could not finish
-    (a :class:`gearbench.simulate.SolverError`), else 2 (bad input), unless ``code`` is given."""
+    (a :class:`gearbench.errors.SolverError`: also ``ReplayRunError`` and ``SynthRunError``), else 2
+    (bad input: every other :class:`gearbench.errors.GearbenchError`, a ``ValueError``, an ``OSError``),
+    unless ``code`` is given."""
     if code is None:
-        # simulate is imported only if something was solved; not loaded, exc cannot be its error
-        sim = sys.modules.get("gearbench.simulate")
-        code = EXIT_FAILED if sim is not None and isinstance(exc, sim.SolverError) else EXIT_BAD_INPUT
+        code = EXIT_FAILED if isinstance(exc, SolverError) else EXIT_BAD_INPUT
     console.print(f"[bold red]error:[/] {exc}", markup=True, highlight=False)
     sys.exit(code)
 

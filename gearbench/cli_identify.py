@@ -11,6 +11,7 @@ import click
 from rich.table import Table
 
 from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, parse_noise, stdout
+from .errors import DiagnosisInterrupted, GearbenchError
 
 
 _common = [
@@ -73,13 +74,13 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noi
 
 
 def _errors():
-    """The bad-input errors a command reports with exit status 2; an unreachable ``--scheduler``
-    (``gearbench.workers.SchedulerError``) is a ``ValueError`` among them."""
-    from .experiment.files import ConfigError
-    from .identify.fit import FitError
-    from .identify.replay import ReplayError
-    from .measure.data import MeasurementError
-    return (ConfigError, MeasurementError, ReplayError, FitError, ValueError)
+    """The errors a command reports on stderr and exits with (``cli_common.fail``): 1 for a replay the
+    solver could not finish (``ReplayRunError``, a ``SolverError``), else 2 (bad input).
+
+    ``ValueError`` too, deliberately: the commands' own option checks (``--noise``, ``--effect``'s
+    parsing) and some checks of the library raise a plain ``ValueError`` for bad input: a column
+    too short for a noise estimate (``measure.noise``)."""
+    return (GearbenchError, ValueError)
 
 
 _scheduler = click.option(
@@ -246,7 +247,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
     cleanly: the ladder so far is printed and the exit status is 130.
     """
-    from .identify.diagnose import DiagnosisInterrupted, diagnose as run_diagnosis
+    from .identify.diagnose import diagnose as run_diagnosis
     from .report.compare import ladder_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
@@ -394,7 +395,8 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     from .api import attempts, fit_report
     from .cli_synth import parse_effect
     from .experiment.writer import update_plant_yaml
-    from .identify.candidates import NotConverged, check_names
+    from .errors import NotConverged
+    from .identify.candidates import check_names
     from .identify.uncertainty import strong_correlations
     from .plant.effects import REGISTRY
     from .report.io import write_text_atomic

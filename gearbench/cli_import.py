@@ -18,6 +18,7 @@ from pathlib import Path
 import click
 
 from .cli_common import _fail, echo_json
+from .errors import GearbenchError
 
 # 12 significant digits keep every value of the record: qm's 5e-8 m steps are 5e-5 mm, and the
 # largest position (~246.4 mm) needs 8 digits; the EMPS CSV copies themselves hold 10.
@@ -108,7 +109,7 @@ def emps(data: Path, output: Path, as_json: bool) -> None:
     try:
         frame = to_measurement_frame(read_emps(data))
         write_csv_atomic(frame, output, float_format=FLOAT_FORMAT)
-    except (OSError, ValueError) as exc:
+    except (GearbenchError, OSError) as exc:  # read_emps names a broken file in an EMPSFormatError
         _fail(exc)
     t = frame["time_s"].to_numpy()
     if as_json:
@@ -152,7 +153,7 @@ def csv_(data: Path, output: Path, columns, units, columns_file, as_json: bool) 
     try:
         m, used, ignored = read_mapped(data, column_map(columns, units, columns_file))
         write_measurement(m, output, float_format=FLOAT_FORMAT)
-    except (OSError, ValueError) as exc:
+    except (GearbenchError, OSError) as exc:  # MeasurementError, or ConfigError for a --columns-file
         _fail(exc)
     if as_json:
         echo_json({"output": str(output), "rows": len(m.time_s), "duration_s": m.duration_s,

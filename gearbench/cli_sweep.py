@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from .cli_common import EXIT_FAILED, _fail, console, echo_json, interrupted, is_interrupt, stdout
+from .errors import GearbenchError
 
 
 
@@ -57,16 +58,14 @@ def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers:
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                TimeElapsedColumn, TimeRemainingColumn)
 
-    from .experiment.files import ConfigError
-    from .profiles import ProfileError
     from .report import sweep as report
     from .report.io import save_figure_atomic, write_text_atomic
     from .report.markdown import update_block
-    from .sweep import SweepError, default_workers, parse_params, plan_sweep, run_sweep
+    from .sweep import default_workers, parse_params, plan_sweep, run_sweep
 
     try:
         plan = plan_sweep(experiment, parse_params(params))
-    except (ConfigError, ProfileError, SweepError) as exc:
+    except GearbenchError as exc:
         _fail(exc)
     command = f"gearbench sweep {experiment} " + " ".join(f"--param {p}" for p in params)
     where = f"the Dask scheduler at {scheduler}" if scheduler else \
@@ -93,7 +92,7 @@ def sweep(experiment: Path, params: tuple[str, ...], results_dir: Path, workers:
         try:
             outcome = run_sweep(plan, results_dir, workers=workers, scheduler=scheduler,
                                 fresh=fresh, on_start=start, on_done=done)
-        except SweepError as exc:
+        except GearbenchError as exc:
             _fail(exc)
         except Exception as exc:
             # a Ctrl-C inside compiled code comes as a SystemError caused by it (run_sweep takes
@@ -182,7 +181,7 @@ def stability(plant_file: Path, kind: str, ki: float, kd: float, tf: float, at: 
     thesis's gains.
     """
     from .control.stability import analyse
-    from .experiment.files import ConfigError, load_plant
+    from .experiment.files import load_plant
     from .report.markdown import update_block
     from .report.stability import _range, rich_table, stability_markdown
 
@@ -191,9 +190,9 @@ def stability(plant_file: Path, kind: str, ki: float, kd: float, tf: float, at: 
         gains = [float(x) for x in at.split(",")]
         if not all(g > 0 for g in gains):
             raise ValueError
-    except ConfigError as exc:
+    except GearbenchError as exc:
         _fail(exc)
-    except ValueError:
+    except ValueError:  # float() of a word, or a gain <= 0
         _fail(ValueError(f"--at must be a comma-separated list of positive gains in V/deg, got {at!r}"))
     rep = analyse(plant, kind, ki=ki if kind != "p" else 0.0, kd=kd if kind == "pid" else 0.0, tf=tf,
                   check_kp=gains)

@@ -16,6 +16,7 @@ from pathlib import Path
 import click
 
 from .cli_common import parse_noise, _fail, console, echo_json
+from .errors import ConfigError, GearbenchError
 
 
 def _number_or_text(text: str):
@@ -65,7 +66,7 @@ def check_effects(specs: tuple[str, ...], plant) -> list:
     on ``plant``, e.g. no amplifier dead zone on a torque drive).  Raises ``ConfigError``
     (label ``--effect``) listing every problem, each naming the effect and the key.
     """
-    from .experiment.files import ConfigError, check_effects_on
+    from .experiment.files import check_effects_on
 
     problems: list[str] = []
     items = []
@@ -149,10 +150,9 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
     """
     import yaml
 
-    from .experiment.files import ConfigError, load_plant
+    from .experiment.files import load_plant
     from .identify import synth as S
     from .measure.data import write_measurement
-    from .profiles import ProfileError
     from .report.io import write_text_atomic
 
     start = time.perf_counter()
@@ -206,7 +206,10 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
                               notes=notes)
         text = (f"# What {output.name} hides: made by gearbench synth from {plant_file}.\n"
                 + yaml.safe_dump(record, sort_keys=False, allow_unicode=True, width=10_000))
-    except (ConfigError, ProfileError, S.SynthError, ValueError, OSError) as exc:
+    except (GearbenchError, ValueError, OSError) as exc:
+        # ValueError too, deliberately: --noise (cli_common.parse_noise) and identify.synth's checks
+        # of the excitation (duration, sample time, profile:N, a CSV file) and of the noise raise a
+        # plain ValueError for bad input.  SynthRunError (a SolverError) exits 1, the others 2.
         _fail(exc)
 
     existed = output.exists()
@@ -218,7 +221,7 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
             if not existed:  # no data without its truth
                 output.unlink(missing_ok=True)
             raise
-    except (OSError, ValueError) as exc:
+    except (GearbenchError, OSError) as exc:  # write_measurement's MeasurementError, or the disk
         _fail(exc)
     wall = time.perf_counter() - start
     hid = "; ".join(f"{e.name}(" + ", ".join(f"{k}={v}" for k, v in e.values.items()) + ")"

@@ -13,7 +13,9 @@ from typing import NamedTuple
 import numpy as np
 
 from . import layout as L
+from .errors import ConfigError, SolverError
 from .interrupts import is_interrupt
+from .schema import Choice, Number, show
 from .control.controllers import Controller, pack_controller
 from .plant.components import Plant
 from .plant.effects.codegen import compiled_model
@@ -76,14 +78,13 @@ class Segments(_SegmentFields):
     >>> Segments([0.0, 2.0, 1.0], [0.0, 0.1, 0.2], [0.0, 0.0, 0.0])
     Traceback (most recent call last):
     ...
-    gearbench.experiment.files.ConfigError: Segments: t must increase strictly (s): t[2] = 1 s comes after t[1] = 2 s
+    gearbench.errors.ConfigError: Segments: t must increase strictly (s): t[2] = 1 s comes after t[1] = 2 s
     """
     __slots__ = ()
 
     def __new__(cls, t, v, s, d=None):
         arrays, problems = segment_problems(t, v, s, d)
         if problems:
-            from .experiment.files import ConfigError  # that module imports this one
             raise ConfigError("Segments", problems)
         return super().__new__(cls, *arrays)
 
@@ -171,8 +172,15 @@ class SolverOptions:
     friction_speed_rel: float = 1e-5
 
 
-class SolverError(RuntimeError):
-    """A run the solver could not finish; the message says where and why."""
+SOLVER = {
+    "method": Choice(tuple(METHODS), required=False),
+    "rtol": Number("", low=0.0, high=1.0, required=False),
+    "max_step_s": Number("s", low=0.0, low_strict=True, required=False),
+    "output_dt_s": Number("s", low=0.0, low_strict=True, required=False),
+    "max_steps": Number("steps", low=0.0, low_strict=True, integer=True, required=False),
+}
+"""The keys of an experiment file's ``solver:`` section (:class:`SolverOptions` fields) and their
+checks; :func:`run_problems` checks a :class:`SolverOptions` with them too."""
 
 
 @dataclass
@@ -258,11 +266,10 @@ def simulate(plant: Plant, controller: Controller, inputs: Segments, t_end: floa
     centred).  A failed run comes back with ``ok == False`` and its status,
     or raises :class:`SolverError` naming the run, the time and the likely
     cause when ``raise_on_failure``.  The arguments are checked first: a
-    :class:`~gearbench.experiment.files.ConfigError` names each bad one and its unit.
+    :class:`~gearbench.errors.ConfigError` names each bad one and its unit.
     """
     problems = run_problems(plant, controller, inputs, t_end, delta0, options)
     if problems:
-        from .experiment.files import ConfigError  # that module imports this one
         raise ConfigError("simulate", problems)
     run = simulate_packed(pack(plant, controller), tolerance_scales(plant), inputs, t_end,
                           rest_state(plant, delta0), options, label)
@@ -281,7 +288,6 @@ MAX_SAMPLES = 10_000_000
 def run_problems(plant, controller, inputs, t_end, delta0=0.0,
                  options: SolverOptions = SolverOptions()) -> list[str]:
     """What is wrong with :func:`simulate`'s arguments (empty when nothing is)."""
-    from .experiment.schema import Number, show  # gearbench.experiment imports this module
     problems = []
     for name, value, cls in (("plant", plant, Plant), ("controller", controller, Controller),
                              ("inputs", inputs, Segments)):
@@ -289,7 +295,6 @@ def run_problems(plant, controller, inputs, t_end, delta0=0.0,
             problems.append(f"{name} must be a {cls.__name__}, got {show(value)}")
     t_end_ok = Number("s").check(t_end, "t_end", problems) is not None
     if isinstance(options, SolverOptions):
-        from .experiment.files import SOLVER
         before = len(problems)
         for name, spec in {**SOLVER, "friction_speed_rel": Number("")}.items():
             spec.check(getattr(options, name), f"options.{name}", problems)

@@ -58,16 +58,12 @@ import numpy as np
 
 from . import layout as L
 from .control.controllers import Controller
-from .experiment.files import (ConfigError, Experiment, _resolve, experiment_from_dict, is_file, parse_yaml,
-                               read_yaml)
+from .errors import ConfigError, SchedulerError, SweepError
+from .experiment.files import Experiment, _resolve, experiment_from_dict, is_file, parse_yaml, read_yaml
 from .physics_hash import physics_digest
 from .simulate import failure_message, simulate
-from .workers import (SchedulerError, dask_client, default_workers,  # noqa: F401 - default_workers re-exported
+from .workers import (dask_client, default_workers,  # noqa: F401 - default_workers re-exported
                       process_pool, worker_count)
-
-
-class SweepError(ValueError):
-    """A sweep that cannot run: bad ``--param`` syntax, a store of another sweep, no scheduler."""
 
 
 # ------------------------------------------------------------------ grid parsing

@@ -44,6 +44,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Iterator
 
 from .blas import limit_this_process
+from .errors import SchedulerError
 
 POLL_S = 0.2
 """Period of the fallback parent watch, s (a worker outlives its parent by at most this)."""
@@ -53,10 +54,6 @@ _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 CONNECT_TIMEOUT_S = 20
 """How long :func:`dask_client` waits for a scheduler to answer, s (an address where nothing
 listens is only known to be wrong after it: the client retries a refused connection)."""
-
-
-class SchedulerError(ValueError):
-    """A Dask scheduler that cannot be used: a malformed address, nothing answering there, no dask."""
 
 
 def default_workers() -> int:

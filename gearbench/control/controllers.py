@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import layout as L
+from ..errors import ConfigError
+from ..schema import Choice, Number, is_number, show
 
 COMPENSATORS = ("none", "thesis_shift", "setpoint_direction", "direction_feedforward", "damped_feedforward")
 """Backlash compensators (each adds the set-point shift, thesis Equation 1, of
@@ -155,7 +157,7 @@ class Controller:
     >>> Controller("p", kp=-5)
     Traceback (most recent call last):
     ...
-    gearbench.experiment.files.ConfigError: Controller: kp must be a positive number in V/deg, got -5
+    gearbench.errors.ConfigError: Controller: kp must be a positive number in V/deg, got -5
     """
     kind: str
     kp: float = 0.0
@@ -170,14 +172,10 @@ class Controller:
     def __post_init__(self):
         problems = self.problems()
         if problems:
-            # imported here: gearbench.experiment.files imports this module
-            from ..experiment.files import ConfigError
             raise ConfigError("Controller", problems)
 
     def problems(self) -> list[str]:
         """Every bad setting, one text each naming it and its unit (empty when valid)."""
-        # imported here: gearbench.experiment imports this module (its schema has no such import)
-        from ..experiment.schema import Choice, Number, is_number, show
         problems: list[str] = []
         if Choice(tuple(KINDS)).check(self.kind, "kind", problems) is None:
             return problems

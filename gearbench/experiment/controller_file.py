@@ -15,8 +15,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..control.sampled import SampledPV
-from .files import ConfigError, read_yaml
-from .schema import Choice, Number, check_mapping
+from ..errors import ConfigError
+from ..schema import Choice, Number, check_mapping
+from .files import read_yaml
 
 FIELDS = {
     "kind": Choice(("sampled_pv",)),

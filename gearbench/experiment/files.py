@@ -21,54 +21,24 @@ import math
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 import yaml
 
 from ..control.controllers import COMPENSATORS, Controller
+from ..errors import ConfigError
 from ..plant.components import FITTABLE, Gear, Leadscrew, Load, Motor, Plant, Shaft
-from ..simulate import METHODS, SolverOptions, pack
+from ..simulate import SOLVER, SolverOptions, pack
 from ..plant.effects import REGISTRY as EFFECTS
 from ..plant.effects.base import AddedEffect
 from ..plant.effects.location import key as effect_key
 from ..plant.pack import pack_plant, tolerance_scales
 from .. import layout as L
-from .schema import Choice, Number, Text, check_mapping, index, join, show, unknown_key
+from ..schema import Choice, Number, Text, check_mapping, index, join, show, unknown_key
 
 CONTACT_LAWS = ("dubowsky", "elasto_backlash")
 INLINE = "<inline plant>"
-
-
-class ConfigError(ValueError):
-    """A plant or experiment file that cannot be used, with every problem found.
-
-    Parameters
-    ----------
-    file : str or None
-        Label of the file the problems belong to (its name).
-    problems : str or iterable
-        Problem texts (each naming a key path and the expected unit); an item
-        may also be a ``(file, text)`` pair when problems span several files.
-
-    Attributes
-    ----------
-    entries : tuple of (str, str)
-        ``(file, problem)`` pairs; the message has one line ``file: problem`` each.
-    """
-
-    def __init__(self, file: str | None, problems: str | Iterable[Any]):
-        items = [problems] if isinstance(problems, str) else list(problems)
-        self.entries = tuple(p if isinstance(p, tuple) else (file or "<config>", p) for p in items)
-        super().__init__("\n".join(f"{f}: {t}" for f, t in self.entries))
-
-    @property
-    def problems(self) -> list[str]:
-        """The problem texts without the file label."""
-        return [t for _, t in self.entries]
-
-    def __reduce__(self):  # picklable for process pools / Dask
-        return (ConfigError, (None, list(self.entries)))
 
 
 # ---------------------------------------------------------------- YAML reading
@@ -578,13 +548,6 @@ def load_plant(source: str | Path | Mapping, *, base_dir: str | Path | None = No
 
 # ----------------------------------------------------------------- experiments
 
-SOLVER = {
-    "method": Choice(tuple(METHODS), required=False),
-    "rtol": Number("", low=0.0, high=1.0, required=False),
-    "max_step_s": Number("s", **POS, required=False),
-    "output_dt_s": Number("s", **POS, required=False),
-    "max_steps": Number("steps", **POS, integer=True, required=False),
-}
 EXPERIMENT_TOP = {
     "name": Text(),
     "description": Text(nonempty=False),

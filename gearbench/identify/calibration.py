@@ -46,9 +46,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import ReplayError
 from ..plant.components import FITTABLE, Plant
 from .fit import Free, Scorer, get_value, param_value, set_values
-from .replay import Replay, ReplayError
+from .replay import Replay
 from . import search
 from .uncertainty import central_jacobian, correlation, standard_errors
 

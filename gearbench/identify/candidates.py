@@ -18,9 +18,10 @@ from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
 from .evidence import signal_evidence
 from .executor import Executor
-from .fit import FitError, Free, FitResult, Scorer, evaluate, fit, get_value
+from ..errors import FitError, NotConverged, ReplayError
+from .fit import Free, FitResult, Scorer, evaluate, fit, get_value
 from .refit import best_fit, frees_of
-from .replay import Replay, ReplayError
+from .replay import Replay
 from . import search
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
@@ -325,14 +326,6 @@ def rank(tried: list[Tried]) -> list[Tried]:
         for i, t in zip(slots, sorted(group, key=lambda t: signal_evidence(t.result))):
             out[i] = t
     return out
-
-
-class NotConverged(FitError):
-    """No place of an effect converged (:func:`fit_effect`); ``tried`` holds each place's try."""
-
-    def __init__(self, message: str, tried: list):
-        super().__init__(message)
-        self.tried = tried
 
 
 def fit_effect(plant: Plant, replay: Replay, name: str, options=None, start=None, free=(), refit: bool = False,

@@ -60,6 +60,7 @@ from dataclasses import replace
 from typing import Callable
 
 from ..blas import single_threaded
+from ..errors import DiagnosisInterrupted, ReplayError
 from ..interrupts import is_interrupt
 from ..plant.components import Plant
 from . import calibration
@@ -69,17 +70,8 @@ from .fit import FitResult, Scorer, evaluate, fit, plant_frees
 from .ladder import Context, State, Stop, climb
 from .policy import Policy
 from .progress import ProgressEvent, Tracker
-from .replay import Replay, ReplayError
+from .replay import Replay
 from .results import Diagnosis, diagnosis
-
-
-class DiagnosisInterrupted(KeyboardInterrupt):
-    """Ctrl-C during the ladder: ``diagnosis`` is the ladder as far as it got (its ``stopped`` is
-    ``"interrupted"``).  A KeyboardInterrupt, so code that does not look for it stops as before."""
-
-    def __init__(self, diagnosis: "Diagnosis"):
-        super().__init__("diagnosis interrupted")
-        self.diagnosis = diagnosis
 
 
 @single_threaded

@@ -31,9 +31,10 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.optimize._numdiff import approx_derivative
 
+from ..errors import FitError, ReplayError
 from ..plant.components import FITTABLE, Plant
 from ..plant.effects import AddedEffect
-from .replay import Replay, ReplayError
+from .replay import Replay
 from . import uncertainty as U
 
 
@@ -41,10 +42,6 @@ from . import uncertainty as U
 EXCESS = {("stribeck_friction", "static_torque"): "coulomb_torque"}
 """(effect, parameter) -> the parameter of the same effect it must not fall below: the fit moves
 the excess (file keys: ``static_force`` over ``coulomb_force`` at the carriage)."""
-
-
-class FitError(ValueError):
-    """A fit that cannot be set up (an unknown free key, a missing effect)."""
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ import math
 
 from ..plant.components import Plant
 from .fit import Free, FitResult, evaluate, fit, plant_frees
-from .replay import ReplayError
+from ..errors import ReplayError
 
 
 def frees_of(replay, plant: Plant, free_plant, effects) -> list[Free]:

@@ -31,12 +31,13 @@ import math
 import numpy as np
 
 from .. import layout as L
+from ..errors import ReplayError, ReplayRunError
 from ..measure.data import Measurement
 from ..measure.noise import noise_floor, rest_noise
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
-from ..simulate import Segments, SolverError, SolverOptions, failure_message, simulate_packed
+from ..simulate import Segments, SolverOptions, failure_message, simulate_packed
 from . import signals as S
 
 DRIVES = {"voltage_V": "voltage", "drive_torque_Nm": "torque", "drive_force_N": "force"}
@@ -57,14 +58,6 @@ MAX_STEP_S = 1e-3
 def solver_options(rtol: float = 1e-6) -> SolverOptions:
     """A replay's solver options: relative tolerance ``rtol``, steps of at most :data:`MAX_STEP_S`."""
     return SolverOptions(rtol=rtol, max_step_s=MAX_STEP_S)
-
-
-class ReplayError(RuntimeError):
-    """A replay that cannot run or failed; the message says which and why."""
-
-
-class ReplayRunError(ReplayError, SolverError):
-    """The solver could not finish the replay (the files were fine; the CLI exits 1, not 2)."""
 
 
 def noise_at_rest(rest: Measurement, columns) -> dict[str, float]:

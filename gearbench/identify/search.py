@@ -25,8 +25,9 @@ import math
 import numpy as np
 from scipy.stats import qmc
 
+from ..errors import ReplayError
 from .fit import Free, Scorer, set_values
-from .replay import Replay, ReplayError
+from .replay import Replay
 
 SPAN = (0.01, 10.0)     # multiples of the typical value scanned
 POINTS_PER_PARAM = 8    # Sobol points per scanned parameter (rounded up to a power of two)

@@ -31,11 +31,12 @@ from scipy.signal import lfilter
 
 from .. import layout as L
 from ..control.controllers import Controller
+from ..errors import SynthError, SynthRunError
 from ..measure.data import INPUT_COLUMNS, SIGNAL_COLUMNS, Measurement, from_arrays
 from ..plant.components import Plant
 from ..plant.effects.base import AddedEffect
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
-from ..simulate import Segments, SolverError, SolverOptions, failure_message, simulate, simulate_packed
+from ..simulate import Segments, SolverOptions, failure_message, simulate, simulate_packed
 from . import signals as S
 
 INPUT_COLUMN = {"voltage": "voltage_V", "torque": "drive_torque_Nm", "force": "drive_force_N"}
@@ -57,14 +58,6 @@ FIRST_REST_S = 0.2      # the record opens with a rest: a standstill to see the 
 
 SOLVER = SolverOptions(rtol=1e-6, max_step_s=1e-3)
 """Synthesis is the 'truth': tighter than a replay's rtol 1e-5."""
-
-
-class SynthError(RuntimeError):
-    """Synthesis that cannot be done or failed; the message says which run and where."""
-
-
-class SynthRunError(SynthError, SolverError):
-    """The solver could not finish the synthesis run (the CLI exits 1, not 2)."""
 
 
 # ------------------------------------------------------------------ inputs

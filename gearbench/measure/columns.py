@@ -1,7 +1,7 @@
 """Measurements with any column names and units: a mapping onto gearbench's columns.
 
 gearbench reads a record whose header names its own columns (``time_s``,
-``voltage_V``, ``load_angle_deg``, ...: :data:`gearbench.measure.data.COLUMN_UNITS`).
+``voltage_V``, ``load_angle_deg``, ...: :data:`gearbench.measure.names.COLUMN_UNITS`).
 A lab's file names them otherwise (``t``, ``u``, ``theta_out``) and may hold them in
 other units (ms, rad, mA).  A :class:`ColumnMap` says, for each gearbench column,
 which column of the file holds it and in which unit::
@@ -34,9 +34,10 @@ from typing import Any, Callable, Mapping
 import numpy as np
 import pandas as pd
 
+from ..errors import ConfigError, MeasurementError
+from ..schema import show, unknown_key
 from .csvformat import check_choice
-from .data import (COLUMN_UNITS, DISTURBANCE_COLUMN, INPUT_COLUMNS, SETPOINT_COLUMNS, SIGNAL_COLUMNS,
-                   TIME_COLUMN, MeasurementError)
+from .names import COLUMN_UNITS, DISTURBANCE_COLUMN, INPUT_COLUMNS, SETPOINT_COLUMNS, SIGNAL_COLUMNS, TIME_COLUMN
 
 #: quantity name of each column: the column's name without its unit suffix
 QUANTITY = {name: name.rsplit("_", 1)[0] for name in COLUMN_UNITS}
@@ -126,7 +127,7 @@ def unit_factor(text: str, column: str) -> float:
     text : str
         A unit in pint's syntax (``'mA'``, ``'turn/4096'``, ``'N*m'``).
     column : str
-        A gearbench column (:data:`gearbench.measure.data.COLUMN_UNITS`).
+        A gearbench column (:data:`gearbench.measure.names.COLUMN_UNITS`).
 
     Raises
     ------
@@ -405,13 +406,12 @@ def load_column_map(path: str | Path, partial: bool = False) -> ColumnMap:
 
     Raises
     ------
-    gearbench.experiment.files.ConfigError
+    gearbench.errors.ConfigError
         For a file that is missing, not YAML or not such a mapping (naming the key).
     MeasurementError
         For unknown columns or units (see :meth:`ColumnMap.build`).
     """
-    from ..experiment.files import ConfigError, read_yaml
-    from ..experiment.schema import show, unknown_key
+    from ..experiment.files import read_yaml
 
     path = Path(path)
     raw = read_yaml(path)

@@ -20,15 +20,13 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import CsvFormatError
+
 DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 DECIMALS = {".": "point", ",": "comma"}
 _HEAD_BYTES = 1 << 16
 _COMMA_NUMBER = re.compile(r"\s*[+-]?(?:\d+,\d*|,\d+)(?:[eE][+-]?\d+)?\s*")
 _POINT_NUMBER = re.compile(r"\s*[+-]?(?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
-
-
-class CsvFormatError(ValueError):
-    """A file that is not CSV text, or a delimiter/decimal choice that cannot work."""
 
 
 @dataclass(frozen=True)

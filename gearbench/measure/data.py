@@ -32,31 +32,11 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from ..errors import CsvFormatError, MeasurementError
 from ..report.io import write_csv_atomic
-from .csvformat import CsvFormat, CsvFormatError, sniff
-
-TIME_COLUMN = "time_s"
-INPUT_COLUMNS = ("voltage_V", "drive_torque_Nm", "drive_force_N")
-SIGNAL_COLUMNS = {
-    "motor_angle_deg": "deg",
-    "load_angle_deg": "deg",
-    "load_position_mm": "mm",
-    "current_A": "A",
-    "motor_position_mm": "mm",
-}
-SETPOINT_COLUMNS = ("setpoint_deg", "setpoint_mm")
-DISTURBANCE_COLUMN = "disturbance_V"
-
-COLUMN_UNITS: dict[str, str] = {
-    TIME_COLUMN: "s",
-    "voltage_V": "V",
-    "drive_torque_Nm": "N m",
-    "drive_force_N": "N",
-    **SIGNAL_COLUMNS,
-    "setpoint_deg": "deg",
-    "setpoint_mm": "mm",
-    DISTURBANCE_COLUMN: "V",
-}
+from .columns import as_column_map, map_columns, needed
+from .csvformat import CsvFormat, sniff
+from .names import COLUMN_UNITS, DISTURBANCE_COLUMN, INPUT_COLUMNS, SETPOINT_COLUMNS, SIGNAL_COLUMNS, TIME_COLUMN
 
 # Suffixes an engineer uses for units; a column ending in one of these that is not ours
 # is most likely a unit we do not read (``load_angle_rad``), so the message says so.
@@ -68,14 +48,6 @@ _UNIT_SUFFIXES = frozenset("""
 """.split())
 
 _MIN_ROWS = 2
-
-
-class MeasurementError(ValueError):
-    """A measurement that gearbench cannot use; ``problems`` lists each reason."""
-
-    def __init__(self, message: str, problems: Sequence[str] = ()):
-        super().__init__(message)
-        self.problems = list(problems) or [message]
 
 
 @dataclass(eq=False)
@@ -394,7 +366,6 @@ def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement
         raise MeasurementError(f"measurement file '{path}' is a directory, not a CSV file")
     cmap = None
     if columns is not None or units is not None:
-        from .columns import as_column_map
         cmap = as_column_map(columns, units)
     try:
         fmt = sniff(path, cmap.delimiter if cmap else None, cmap.decimal if cmap else None)
@@ -413,7 +384,6 @@ def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement
         return _check_and_assemble(names, {}, str(path), where,
                                    extra=["the file has a header but no data rows"]), used, ignored
     if cmap is not None and not cmap.empty:
-        from .columns import map_columns, needed
         mapped = map_columns(cmap, names, body, str(path), lambda c: _to_float(c, fmt.decimal))
         used, ignored = mapped.used, mapped.ignored
         try:

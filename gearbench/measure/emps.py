@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import EMPSFormatError
+
 EMPS_CITATION = ('A. Janot, M. Gautier, M. Brunot, "Data Set and Reference Models of EMPS", '
                  'Workshop on Nonlinear System Identification Benchmarks, Eindhoven, April 2019, '
                  'HAL hal-02178709')
@@ -75,10 +77,6 @@ CSV_COLUMNS = ("t_s", "qm_m", "qg_m", "vir_V", "force_N")
 # The stored time stamps may jitter; anything beyond this fraction of Ts means lost or
 # duplicated samples, and then "sample index x Ts" would be wrong.
 MAX_JITTER_FRACTION = 0.01
-
-
-class EMPSFormatError(ValueError):
-    """An EMPS file is missing a variable or column, or holds one of the wrong shape or value."""
 
 
 def _vector(name: str, value: Any, where: str) -> np.ndarray:

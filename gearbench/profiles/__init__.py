@@ -24,16 +24,13 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from ..errors import ProfileError
 from ..experiment.files import is_file
 from ..simulate import Segments
 
 PROFILE_DIR = Path(__file__).resolve().parent
 """The thesis's three profiles (``profile1`` ... ``profile3``), shipped with the package."""
 SEGMENT_KEYS = {"start_s", "value_deg", "slope_deg_per_s"}
-
-
-class ProfileError(ValueError):
-    """A profile file that cannot be used; the message names the file and the key."""
 
 
 @dataclass(frozen=True)

@@ -66,6 +66,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from . import user
+from .registry import REGISTRY, REVISION
+
 
 @dataclass(frozen=True)
 class Param:
@@ -213,10 +216,6 @@ def lumped_rotor(plant) -> str:
             f"motor.inertia the rotor's value and take it out of the load's")
 
 
-REGISTRY: dict[str, Effect] = {}
-REVISION = [0]  # bumped at every registration: what is derived from the registry is cached by it
-
-
 PLACES = ("motor", "load", "voltage", "mesh")
 
 
@@ -256,8 +255,7 @@ def registered(name: str, source: str | None = None) -> Effect:
     """The registered effect ``name``, loading its file ``source`` first when it
     is not registered yet (a worker that received it from another process)."""
     if name not in REGISTRY and source:
-        from .user import load
-        load(source)
+        user.load(source)
     try:
         return REGISTRY[name]
     except KeyError:

@@ -16,6 +16,8 @@ import importlib.util
 import sys
 from pathlib import Path
 
+from .registry import REGISTRY, REVISION
+
 
 def module_name(path: Path) -> str:
     """A stable module name for the file at ``path``: its stem and a hash of
@@ -51,7 +53,6 @@ def unload(path: str | Path) -> list[str]:
     """Forget the effect module at ``path``: its effects leave the registry and
     its module ``sys.modules`` (a test's throwaway effect); returns their names.
     A compiled model already generated with them stays on disk."""
-    from .base import REGISTRY, REVISION
     path = Path(path).expanduser().resolve()
     names = [n for n, e in REGISTRY.items() if e.source and Path(e.source).resolve() == path]
     for n in names:
