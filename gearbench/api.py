@@ -540,11 +540,12 @@ def run_experiment(experiment: Experiment | str | Path, *, workers: int | None =
 # ------------------------------------------------------ models against data
 
 def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float, where: str,
-            noise_std: Mapping | None = None):
-    """Plant, record and replay, every argument checked before any solving (as the CLI's ``_setup``)."""
+            noise_std: Mapping | None = None, noise_from: Any = None):
+    """Plant, record and replay, every argument checked before any solving (the CLI's ``_setup``
+    reads the files, then comes here)."""
     from .control.sampled import SampledPV
     from .experiment.controller_file import load_controller
-    from .identify.replay import Replay, solver_options
+    from .identify.replay import Replay, solver_options, stated_noise
     plant = _as_plant(plant, where)
     data = load_measurement(data)
     problems: list[str] = []
@@ -555,12 +556,13 @@ def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float
     elif controller is not None and not isinstance(controller, SampledPV):
         problems.append(f"controller must be None (open loop), a controller file path or a SampledPV, "
                         f"got {show(controller)}")
-    _raise(where, problems)
     if noise_std is not None and not isinstance(noise_std, Mapping):
-        _raise(where, [f"noise_std must be a mapping {{column: standard deviation in its unit}}, got "
-                       f"{show(noise_std)}"])
+        problems.append(f"noise_std must be a mapping {{column: standard deviation in its unit}}, got "
+                        f"{show(noise_std)}")
+    _raise(where, problems)
+    rest = None if noise_from is None else load_measurement(noise_from)
     replay = Replay(data, controller, window_s or None, solver_options(rtol),
-                    noise_std=None if noise_std is None else dict(noise_std))
+                    noise_std=stated_noise(data, controller is not None, noise_std, rest))
     replay.check(plant)
     return plant, data, replay
 
@@ -654,7 +656,7 @@ class Comparison:
 
 def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
             controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
-            noise_std: Mapping[str, float] | None = None) -> Comparison:
+            noise_std: Mapping[str, float] | None = None, noise_from: Any = None) -> Comparison:
     """Drive the model as the record was driven and measure where it fails.
 
     Parameters
@@ -677,9 +679,14 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
         deviation}`` in each column's unit (e.g. ``{"load_angle_deg": 0.015}``),
         where it is known (a record of the machine at rest, the sensor's
         datasheet): it is that column's noise floor and weight, and the least
-        drift a window's reset acts on.  Default: read from the record's third
-        differences, which assumes white noise (coloured noise shows there only
-        in part).
+        drift a window's reset acts on; the key ``"all"`` sets every compared
+        column (the ones named beside it win).  Default: read from the record's
+        third differences, which assumes white noise (coloured noise shows there
+        only in part).
+    noise_from : str, Path, pandas.DataFrame or Measurement, optional
+        A record of the machine at rest (as ``--noise-from``): each compared
+        column's noise is its standard deviation there; ``noise_std`` wins
+        where both give one.
 
     Returns
     -------
@@ -705,7 +712,7 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     """
     from .identify.compare import comparison
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std, noise_from)
     return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
@@ -803,7 +810,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
              free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
              workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
              time_limit_s: float | None = None, progress=None,
-             noise_std: Mapping[str, float] | None = None) -> DiagnosisReport:
+             noise_std: Mapping[str, float] | None = None, noise_from: Any = None) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -820,6 +827,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         Solver relative tolerance.
     noise_std : dict, optional
         The measurement noise of some compared columns, as in :func:`compare`.
+    noise_from : str, Path, pandas.DataFrame or Measurement, optional
+        A record of the machine at rest, as in :func:`compare`.
     free : sequence of str
         Plant parameters refitted with every candidate, e.g. ``("leadscrew.mass",)``.
     only : sequence of str
@@ -889,7 +898,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     if not problems:
         problems += unknown_effects(only, "only")
     _raise(where, problems)
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from)
     from .identify.fit import Free
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
@@ -975,7 +984,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         options: Mapping | None = None, start: Mapping | None = None, free: Sequence[str] = (),
         refit: bool = False, controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
         max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None,
-        noise_std: Mapping[str, float] | None = None) -> FitReport:
+        noise_std: Mapping[str, float] | None = None, noise_from: Any = None) -> FitReport:
     """Add an effect to a plant and fit its parameters (and ``free`` plant parameters) to a record.
 
     Without a ``location`` in ``options`` every place the effect may act is
@@ -1005,6 +1014,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         Solver relative tolerance.
     noise_std : dict, optional
         The measurement noise of some compared columns, as in :func:`compare`.
+    noise_from : str, Path, pandas.DataFrame or Measurement, optional
+        A record of the machine at rest, as in :func:`compare`.
     max_evals : int, optional
         Most simulations the least-squares fit may spend (default 40 per parameter + 40).
     calibrate : bool
@@ -1057,7 +1068,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     if isinstance(effect, str):
         problems += unknown_effects([effect], "effect")
     _raise(where, problems)
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from)
     try:
         return fit_report(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate), scheduler)
     except FitError as exc:

@@ -50,27 +50,18 @@ def common(f):
 
 
 def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noise_from=None):
-    """Plant, record and replay, every file and ``--noise`` checked before any solving."""
+    """Plant, record and replay, every file and ``--noise`` checked before any solving (the files
+    read with the column options, the replay built as the API's)."""
+    from .api import _replay
     from .experiment.controller_file import load_controller
     from .experiment.files import load_plant
-    from .identify.replay import Replay, solver_options
     from .cli_import import context_column_map
     from .measure.data import read_measurement
     plant = load_plant(plant_file)
     data = read_measurement(data_file, context_column_map())
     controller = load_controller(controller_file) if controller_file else None
-    every = list(data.signals) + ([data.input_name] if controller else [])
-    stated = parse_noise(noise, positive=True)
-    if "*" in stated:
-        std = stated.pop("*")
-        stated = {**{n: std for n in every}, **stated}
-    if noise_from is not None:
-        from .identify.replay import noise_at_rest
-        stated = {**noise_at_rest(read_measurement(noise_from, context_column_map()), every), **stated}
-    replay = Replay(data, controller, window_s or None, solver_options(rtol),
-                    noise_std=stated or None)
-    replay.check(plant)
-    return plant, data, replay
+    rest = None if noise_from is None else read_measurement(noise_from, context_column_map())
+    return _replay(plant, data, controller, window_s, rtol, str(data_file), parse_noise(noise, positive=True), rest)
 
 
 def _errors():

@@ -202,7 +202,7 @@ def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
             points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
                                       [get_value(with_it, f) for f in frees])
             res = best_fit([fit(replay, with_it, frees, scorer, start=list(x), **options) for x in points])
-            res.k += len(est or {})
+            res = replace(res, k=res.k + len(est or {}))
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
     if not res.converged:

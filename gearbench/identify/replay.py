@@ -75,6 +75,22 @@ def noise_at_rest(rest: Measurement, columns) -> dict[str, float]:
         raise ReplayError(str(exc)) from None
 
 
+def stated_noise(data: Measurement, closed_loop: bool, stated=None, rest: Measurement | None = None) -> dict | None:
+    """A replay's ``noise_std``: ``stated`` (``{column: standard deviation}`` in each column's unit;
+    the key ``"all"`` or ``"*"`` sets every compared column, the ones named beside it win) over
+    the noise read from ``rest``, a record of the machine at rest (:func:`noise_at_rest`); None
+    when neither gives any."""
+    every = list(data.signals) + ([data.input_name] if closed_loop else [])
+    out = dict(stated or {})
+    for key in ("*", "all"):
+        if key in out:
+            std = out.pop(key)
+            out = {**{n: std for n in every}, **out}
+    if rest is not None:
+        out = {**noise_at_rest(rest, every), **out}
+    return out or None
+
+
 def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int = 2):
     """Polynomial fit of ``y`` over samples ``i - half .. i + half`` (a quadratic by
     default, so an accelerating stretch does not bias it): value and slope at
