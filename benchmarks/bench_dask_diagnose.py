@@ -44,7 +44,7 @@ os.environ.update({k: "1" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENB
 from gearbench.experiment.files import load_plant
 from gearbench.identify.candidates import candidates, fit_each, start_values
 from gearbench.identify.executor import Executor
-from gearbench.identify.fit import Scorer
+from gearbench.identify.scoring import Scorer
 from gearbench.identify.replay import Replay
 from gearbench.measure.data import read_measurement
 from gearbench.plant.effects import AddedEffect

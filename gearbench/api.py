@@ -232,7 +232,7 @@ def load_measurement(source: str | Path | pd.DataFrame | Measurement) -> Measure
 def _signals(result: RunResult, plant: Plant) -> dict[str, np.ndarray]:
     """The run's sampled outputs as named columns in their edge units (the trace
     file's columns first, from ``report.traces.trace_frame``)."""
-    from .identify.synth import input_column
+    from .synth import input_column
     from .report.traces import trace_frame
     frame = trace_frame(result, plant)
     cols = {c: frame[c].to_numpy() for c in frame.columns if c != "time_s"}
@@ -1087,7 +1087,7 @@ def fit_report(plant: Plant, replay, effect: str, options: Mapping | None = None
     effect, option, starting value or free key, and its ``NotConverged`` (with each place's try)
     when no place converged."""
     from .identify.candidates import best_tried, fit_effect
-    from .identify.fit import Scorer
+    from .identify.scoring import Scorer
     tried = fit_effect(plant, replay, effect, options, start, free, refit, max_evals, calibrate, scheduler)
     best = best_tried(tried)
     scorer = Scorer(replay)

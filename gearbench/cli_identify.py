@@ -131,7 +131,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
     if "labels" in c:
         p = c["primary"]
         unit = next(r["unit"] for r in c["signals"] if r["signal"] == p)
-        from .identify.signals import per_rad
+        from .measure.signals import per_rad
         out_name, pos_unit = ("load_position_mm", "mm") if plant.leadscrew else ("load_angle_deg", "deg")
         k = per_rad(out_name, plant)
         fig = residual_figure(c["residuals"][p], k * c["speed"], k * c["position"], p, unit,

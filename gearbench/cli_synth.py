@@ -5,7 +5,7 @@
 
 writes DATA.csv (the SPEC's measurement format) and DATA.truth.yaml (what was
 hidden), for practising ``compare``/``diagnose``/``fit`` on a record whose truth
-is known.  See ``gearbench.identify.synth``.
+is known.  See ``gearbench.synth``.
 """
 from __future__ import annotations
 
@@ -151,7 +151,7 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
     import yaml
 
     from .experiment.files import load_plant
-    from .identify import synth as S
+    from . import synth as S
     from .measure.data import write_measurement
     from .report.io import write_text_atomic
 

@@ -39,7 +39,7 @@ import click
 import numpy as np
 
 from gearbench.experiment.files import load_plant
-from gearbench.identify import synth as S
+from gearbench import synth as S
 from gearbench.identify.fit import Free, fit, get_value, set_values
 from gearbench.identify.replay import Replay, solver_options
 from gearbench.plant.effects import AddedEffect

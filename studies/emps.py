@@ -54,7 +54,8 @@ from gearbench.experiment.controller_file import load_controller
 from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify import uncertainty
-from gearbench.identify.fit import Free, Scorer, fit, get_value, set_values
+from gearbench.identify.fit import Free, fit, get_value, set_values
+from gearbench.identify.scoring import Scorer
 from gearbench.identify.uncertainty import central_jacobian
 from gearbench.identify.replay import Replay, ReplayError
 from gearbench.measure import idim

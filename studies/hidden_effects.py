@@ -27,7 +27,7 @@ from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.evidence import SIGNATURES
 from gearbench.identify.replay import Replay
-from gearbench.identify.synth import default_signals, excitation, synthesize
+from gearbench.synth import default_signals, excitation, synthesize
 from gearbench.plant.effects import REGISTRY, AddedEffect
 from gearbench.report.io import write_text_atomic
 

@@ -16,9 +16,10 @@ import pytest
 from gearbench.experiment.files import ConfigError, load_plant, parse_yaml, plant_from_dict
 from gearbench.experiment.writer import plant_to_yaml, update_plant_yaml
 from gearbench.identify import calibration
-from gearbench.identify.fit import Scorer, evaluate, fit
+from gearbench.identify.fit import evaluate, fit
+from gearbench.identify.scoring import Scorer
 from gearbench.identify.replay import Replay
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from gearbench.simulate import SolverOptions
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -208,7 +209,7 @@ def test_a_fit_holds_the_replays_resets_while_it_moves():
     import numpy as np
 
     from gearbench.identify.replay import ReplayRun
-    from gearbench.identify.synth import excitation, synthesize
+    from gearbench.synth import excitation, synthesize
     from gearbench.plant.effects import AddedEffect
 
     plant = load_plant(RIG)

@@ -117,7 +117,7 @@ def test_a_sweep_with_failed_points_exits_1_also_when_they_are_stored(tmp_path):
 def test_fail_exits_1_for_a_run_the_solver_could_not_finish_and_2_for_bad_input():
     from gearbench.experiment.files import ConfigError
     from gearbench.identify.replay import ReplayError, ReplayRunError
-    from gearbench.identify.synth import SynthError, SynthRunError
+    from gearbench.synth import SynthError, SynthRunError
     for exc, code in [(ReplayRunError("run 'x' failed"), 1), (SynthRunError("run 'y' failed"), 1),
                       (ReplayError("no set point column"), 2), (SynthError("bad excitation"), 2),
                       (ConfigError("plant.yaml", ["gear.ratio: must be > 0"]), 2), (ValueError("--at"), 2)]:

@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from gearbench.cli import main
 from gearbench.experiment.files import load_plant
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from gearbench.measure.data import write_measurement
 from gearbench.plant.effects import AddedEffect
 

@@ -32,7 +32,7 @@ from gearbench.identify.candidates import candidates
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.executor import Executor
 from gearbench.identify.replay import Replay
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from gearbench.measure.data import write_measurement
 from gearbench.plant.effects import AddedEffect
 

@@ -20,7 +20,7 @@ import pytest
 from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.replay import Replay
-from gearbench.identify.synth import default_signals, excitation, synthesize
+from gearbench.synth import default_signals, excitation, synthesize
 from gearbench.plant.effects import AddedEffect
 from gearbench.simulate import SolverOptions
 

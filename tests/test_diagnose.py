@@ -29,7 +29,7 @@ from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.evidence import SIGNATURES
 from gearbench.identify.replay import Replay
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from gearbench.plant.effects import REGISTRY, AddedEffect
 from studies.hidden_effects import CASES, ERROR_TOL, NULL_CASES, PARAM_TOL, PLANTS, case, null_case
 
@@ -164,7 +164,8 @@ def test_an_effect_that_no_longer_pays_is_taken_out():
     nothing left to explain, so ``_prune`` takes it out and keeps the viscous term."""
     from gearbench.identify.ladder import removals
     from gearbench.identify.policy import Policy
-    from gearbench.identify.fit import Free, Scorer, fit
+    from gearbench.identify.fit import Free, fit
+    from gearbench.identify.scoring import Scorer
 
     plant = load_plant(PLANTS / "bench_rig.yaml")
     data = steps_record(plant, [AddedEffect("viscous_friction", {"location": "load", "coefficient": 0.05})],

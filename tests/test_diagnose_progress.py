@@ -19,7 +19,7 @@ from gearbench.identify.policy import Policy
 from gearbench.identify.progress import STAGES
 from gearbench.identify.results import STOPPED
 from gearbench.identify.replay import Replay
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from gearbench.plant.effects import AddedEffect
 
 REPO = Path(__file__).resolve().parents[1]

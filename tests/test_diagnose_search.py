@@ -16,11 +16,12 @@ from gearbench.identify.candidates import Candidate, Pair, Trial, Tried, pair_jo
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.policy import Policy
 from gearbench.identify.progress import Tracker
-from gearbench.identify.evidence import location_text, signal_evidence
-from gearbench.identify.fit import Free, FitResult, Scorer, fit, get_value, own_jacobian, set_values
+from gearbench.identify.evidence import location_text
+from gearbench.identify.fit import Free, FitResult, fit, get_value, own_jacobian, set_values
+from gearbench.identify.scoring import Scorer, signal_evidence
 from gearbench.identify.replay import Replay
 from gearbench.plant.effects import REGISTRY, AddedEffect
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from studies.hidden_effects import PLANTS
 
 STEPS_NOISE = {"motor_angle_deg": 0.02, "load_angle_deg": 0.015, "current_A": 0.008}

@@ -90,7 +90,7 @@ OLD_HOMES = {
     "gearbench.sweep": ["SweepError"], "gearbench.workers": ["SchedulerError"],
     "gearbench.identify.fit": ["FitError"], "gearbench.simulate": ["SolverError"],
     "gearbench.identify.replay": ["ReplayError", "ReplayRunError"],
-    "gearbench.identify.synth": ["SynthError", "SynthRunError"],
+    "gearbench.synth": ["SynthError", "SynthRunError"],
     "gearbench.identify.diagnose": ["DiagnosisInterrupted"],
 }
 """Where each class was defined before gearbench.errors: it stays importable from there."""

@@ -22,10 +22,11 @@ from gearbench.experiment.files import ConfigError, load_plant
 from gearbench.identify.compare import comparison
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.explain import not_driven as _not_driven
-from gearbench.identify.fit import Scorer, evaluate, objective_signals
+from gearbench.identify.fit import evaluate
+from gearbench.identify.scoring import Scorer, objective_signals
 from gearbench.identify.replay import Replay, ReplayError, noise_at_rest
 from gearbench.identify.residuals import residual_test
-from gearbench.identify.synth import excitation, synthesize
+from gearbench.synth import excitation, synthesize
 from gearbench.measure.noise import rest_noise
 from gearbench.plant.effects import AddedEffect
 from gearbench.simulate import SolverOptions

@@ -1,4 +1,4 @@
-"""Synthetic measurements (``gearbench.identify.synth``, ``gearbench synth``).
+"""Synthetic measurements (``gearbench.synth``, ``gearbench synth``).
 
 The bench rig (experiments/plants/bench_rig.yaml) with hidden effects plays the
 real rig; its records must read back as measurements, equal a plain open-loop
@@ -17,7 +17,7 @@ from click.testing import CliRunner
 from gearbench.cli import main
 from gearbench.control.controllers import Controller
 from gearbench.experiment.files import load_plant
-from gearbench.identify import synth
+from gearbench import synth
 from gearbench.identify.replay import Replay
 from gearbench.measure.data import read_measurement, write_measurement
 from gearbench.plant.effects.base import AddedEffect

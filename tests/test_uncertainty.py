@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from gearbench.identify import uncertainty as U
-from gearbench.identify.synth import ar1
+from gearbench.synth import ar1
 from studies import coverage as C
 
 

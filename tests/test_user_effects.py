@@ -146,7 +146,7 @@ SCRIPT = textwrap.dedent('''
     from gearbench.identify.replay import Replay
     from gearbench.measure.data import write_measurement
     from gearbench.plant.effects import AddedEffect
-    from gearbench.identify.synth import excitation, synthesize
+    from gearbench.synth import excitation, synthesize
 
     def record(plant, hidden, seed):  # 3 s of open-loop steps: the user effects show in it
         t, u = excitation("steps", plant, duration_s=3.0, seed=seed)

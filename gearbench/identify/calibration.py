@@ -48,7 +48,8 @@ import numpy as np
 
 from ..errors import ReplayError
 from ..plant.components import FITTABLE, Plant
-from .fit import Free, Scorer, get_value, param_value, set_values
+from .fit import Free, get_value, param_value, set_values
+from .scoring import Scorer
 from .replay import Replay
 from . import search
 from .uncertainty import central_jacobian, correlation, standard_errors

@@ -16,10 +16,10 @@ from dataclasses import dataclass, field, replace
 from ..blas import single_threaded
 from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
-from .evidence import signal_evidence
 from .executor import Executor
 from ..errors import FitError, NotConverged, ReplayError
-from .fit import Free, FitResult, Scorer, evaluate, fit, get_value
+from .fit import Free, FitResult, evaluate, fit, get_value
+from .scoring import Scorer, signal_evidence
 from .refit import best_fit, frees_of
 from .replay import Replay
 from . import search

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..measure.phases import classify_phases, error_shares, smoothed_speed
-from .fit import primary_signal
+from .scoring import primary_signal
 from .replay import Replay, ReplayRun
 from .residuals import DEFAULT_LAGS, check_lags, replay_residual_tests
 

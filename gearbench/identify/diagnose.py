@@ -8,7 +8,7 @@ starts, ``search.py``) and score the fit by the Bayesian information
 criterion of the noise-weighted residuals, ``BIC = n ln(RSS/n) + k ln n``,
 which charges ``ln n`` per added parameter: an effect that does not explain
 more than noise would never wins.  The places of one effect compete on the
-evidence of every signal instead (``evidence.signal_evidence``,
+evidence of every signal instead (``scoring.signal_evidence``,
 ``sum_s n_s ln(RSS_s/n_s)``): they keep the slots their BICs earn, best
 evidence first, so a location one signal clearly contradicts is not chosen
 because another signal's larger misfit dominates the pooled RSS.
@@ -66,7 +66,8 @@ from ..plant.components import Plant
 from . import calibration
 from .candidates import check_names, not_tried
 from .executor import Executor
-from .fit import FitResult, Scorer, evaluate, fit, plant_frees
+from .fit import FitResult, evaluate, fit, plant_frees
+from .scoring import Scorer
 from .ladder import Context, State, Stop, climb
 from .policy import Policy
 from .progress import ProgressEvent, Tracker

@@ -35,7 +35,8 @@ from scipy.signal import savgol_filter
 
 from ..measure.phases import classify_phases, error_shares, smoothed_speed
 from ..plant.effects import REGISTRY
-from . import signals as S
+from ..measure import signals as S
+from .scoring import signal_evidence
 
 # signature -> (view, words naming what it shows)
 SIGNATURES = {
@@ -54,16 +55,6 @@ SIGNATURES = {
                         "signal's rate of change"),
     "steps of one count": ("signal", "steps of one encoder count: the residual is the rounding to the count grid"),
 }
-
-
-def signal_evidence(res: FitResult) -> float:
-    """``sum_s n_s ln(RSS_s / n_s)`` over the compared signals ``s``: -2 ln L of a fit whose
-    residuals are Gaussian with a variance of their own in each signal (up to a constant).
-
-    Pooled, one badly fitted signal (a drifting motor angle, thousands of noise floors) sets the
-    RSS and the others hardly count; here a signal that a fit contradicts (its own RSS many
-    times another fit's) weighs by that ratio whatever its size."""
-    return sum(n * math.log(max(rss, 1e-300) / n) for rss, n in res.signals.values())
 
 
 def location_text(best: Tried, tried: list[Tried]) -> str:

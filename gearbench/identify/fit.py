@@ -35,6 +35,7 @@ from ..errors import FitError, ReplayError
 from ..plant.components import FITTABLE, Plant
 from ..plant.effects import AddedEffect
 from .replay import Replay
+from .scoring import Scorer, criterion, objective_signals
 from . import uncertainty as U
 
 
@@ -161,71 +162,6 @@ def own_jacobian(jac: np.ndarray, frees: list[Free]) -> np.ndarray:
     return out
 
 
-def primary_signal(replay: Replay) -> str:
-    """The column errors are reported in: the input in closed loop (EMPS: the
-    force), else the output angle or position, else the motor's, else the current."""
-    if replay.closed_loop:
-        return replay.data.input_name
-    for name in ("load_angle_deg", "load_position_mm", "motor_angle_deg", "motor_position_mm", "current_A"):
-        if name in replay.data.signals:
-            return name
-    return next(iter(replay.data.signals))
-
-
-def objective_signals(replay: Replay) -> list[str]:
-    """Columns the fit weighs: all measured signals in open loop; in closed loop the
-    input (the controller rejects the physics from the position: Gautier et al.)."""
-    return [replay.data.input_name] if replay.closed_loop else list(replay.data.signals)
-
-
-@dataclass
-class Scorer:
-    """Error measures of one replay: per-column noise floors, weights and the primary column."""
-    replay: Replay
-    floors: dict = field(init=False)
-    primary: str = field(init=False)
-
-    def __post_init__(self):
-        self.primary = primary_signal(self.replay)
-        # a list, not a set: the floors' order is every text's and every sum's over the signals,
-        # and a set's would change with the process's string-hash seed
-        names = objective_signals(self.replay)
-        names = names + [self.primary] * (self.primary not in names)
-        self.floors = {}
-        for n in names:
-            y = self.replay.measured(n)
-            nf = self.replay.noise_floor(n)
-            # a noiseless (simulated, unquantised) column still needs a finite weight
-            self.floors[n] = max(nf, 1e-6 * float(np.sqrt(np.mean(y ** 2))) + 1e-12)
-
-    def weighted(self, sim: dict) -> np.ndarray:
-        res = self.replay.residuals(sim)
-        return np.concatenate([res[n] / self.floors[n] for n in objective_signals(self.replay)])
-
-    def per_signal(self, sim: dict) -> dict[str, tuple[float, int]]:
-        """Each weighed column's ``(RSS, n)`` of its residual divided by its noise floor."""
-        res = self.replay.residuals(sim)
-        out = {}
-        for n in objective_signals(self.replay):
-            w = res[n] / self.floors[n]
-            out[n] = (float(w @ w), int(w.size))
-        return out
-
-    def error(self, sim: dict) -> float:
-        """RMS of the primary column's residual, in its unit."""
-        r = self.replay.residuals(sim)[self.primary]
-        return float(np.sqrt(np.mean(r ** 2)))
-
-    def relative_pct(self, sim: dict) -> float:
-        """``100 ||y - y_hat|| / ||y||`` of the primary column (the EMPS paper's measure), %."""
-        y = self.replay.measured(self.primary)
-        return float(100.0 * np.linalg.norm(y - sim[self.primary]) / np.linalg.norm(y))
-
-    @property
-    def noise_floor(self) -> float:
-        return self.floors[self.primary]
-
-
 @dataclass
 class FitResult:
     """A fitted plant: values, standard errors (sandwich, :func:`uncertainty.covariance`) and their
@@ -255,8 +191,9 @@ class FitResult:
 
     @property
     def bic(self) -> float:
-        """Bayesian information criterion of the weighted residuals, ``n ln(RSS/n) + k ln n``."""
-        return self.n * math.log(max(self.rss, 1e-300) / self.n) + self.k * math.log(self.n)
+        """The criterion of the weighted residuals (:func:`gearbench.identify.scoring.criterion`: the
+        Bayesian information criterion, ``n ln(RSS/n) + k ln n``)."""
+        return criterion(self.rss, self.n, self.k)
 
 
 def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0, seams: tuple | None = None) -> FitResult:

@@ -24,7 +24,8 @@ from ..plant.effects import AddedEffect
 from . import calibration
 from .candidates import Pair, Trial, Tried, candidates, fit_each, pair_jobs, rank, run_jobs, run_pair
 from .executor import Executor
-from .fit import FitResult, Free, Scorer, fit, get_value, plant_frees
+from .fit import FitResult, Free, fit, get_value, plant_frees
+from .scoring import Scorer
 from .policy import Policy
 from .progress import Tracker
 from .refit import best_fit, frees_of, refit

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .fit import FitResult, Scorer, evaluate
+from .fit import FitResult, evaluate
+from .scoring import Scorer
 
 
 @dataclass(frozen=True)

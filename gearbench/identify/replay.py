@@ -38,7 +38,7 @@ from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
 from ..simulate import Segments, SolverOptions, failure_message, simulate_packed
-from . import signals as S
+from ..measure import signals as S
 
 DRIVES = {"voltage_V": "voltage", "drive_torque_Nm": "torque", "drive_force_N": "force"}
 RESET_SAMPLES = 21

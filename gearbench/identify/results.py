@@ -10,7 +10,8 @@ from ..plant.components import Plant
 from . import calibration
 from .candidates import RANKING, Tried
 from .explain import not_driven, reason, rung_text, simplified_text
-from .fit import FitResult, Scorer
+from .fit import FitResult
+from .scoring import Scorer
 from .ladder import CalibrationStep, Context, State, correlated
 from .replay import Replay
 from .residuals import DEFAULT_LAGS, replay_residual_tests

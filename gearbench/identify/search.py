@@ -26,7 +26,8 @@ import numpy as np
 from scipy.stats import qmc
 
 from ..errors import ReplayError
-from .fit import Free, Scorer, set_values
+from .fit import Free, set_values
+from .scoring import Scorer
 from .replay import Replay
 
 SPAN = (0.01, 10.0)     # multiples of the typical value scanned

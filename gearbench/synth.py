@@ -29,15 +29,15 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
-from .. import layout as L
-from ..control.controllers import Controller
-from ..errors import SynthError, SynthRunError
-from ..measure.data import INPUT_COLUMNS, SIGNAL_COLUMNS, Measurement, from_arrays
-from ..plant.components import Plant
-from ..plant.effects.base import AddedEffect
-from ..plant.pack import pack_plant, rest_state, tolerance_scales
-from ..simulate import Segments, SolverOptions, failure_message, simulate, simulate_packed
-from . import signals as S
+from . import layout as L
+from .control.controllers import Controller
+from .errors import SynthError, SynthRunError
+from .measure.data import INPUT_COLUMNS, SIGNAL_COLUMNS, Measurement, from_arrays
+from .plant.components import Plant
+from .plant.effects.base import AddedEffect
+from .plant.pack import pack_plant, rest_state, tolerance_scales
+from .simulate import Segments, SolverOptions, failure_message, simulate, simulate_packed
+from .measure import signals as S
 
 INPUT_COLUMN = {"voltage": "voltage_V", "torque": "drive_torque_Nm", "force": "drive_force_N"}
 """The measurement column of each drive's input."""
