@@ -139,7 +139,7 @@ def test_json_candidates_carry_the_contract_keys_and_failures_say_why():
     plant = load_plant(PLANTS / "bench_rig.yaml")
 
     def ok(err, rss):
-        return FitResult(plant, {}, {}, err, rss, 1000, 1, True, "converged", 5)
+        return FitResult(plant, {}, err, rss, 1000, 1, True, "converged", 5)
 
     tried = _rank([Tried(Candidate("bias_torque", {}), ok(2.0, 900.0), {"torque": 0.1}, {"torque": 0.01}),
                    Tried(Candidate("sensor_delay", {"signal": "load_angle_deg"}), None,

@@ -97,7 +97,7 @@ def test_sobol_points_are_reproducible_space_filling_and_signed_where_the_bounds
 def _ok(plant, rss_by_signal, k=1):
     rss = sum(r for r, _ in rss_by_signal.values())
     n = sum(m for _, m in rss_by_signal.values())
-    return FitResult(plant, {}, {}, 1.0, rss, n, k, True, "converged", 5, None, dict(rss_by_signal))
+    return FitResult(plant, {}, 1.0, rss, n, k, True, "converged", 5, None, dict(rss_by_signal))
 
 
 def test_a_place_one_signal_contradicts_loses_to_one_every_signal_accepts():
@@ -156,7 +156,7 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
     plant = _rig()
     ranked = ["stribeck_friction", "amplifier_deadzone", "coulomb_friction", "viscous_friction",
               "sensor_delay", "shaft_compliance", "encoder_quantization", "bias_torque"]
-    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+    tried = [Tried(Candidate(name, {}), FitResult(plant, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
                    {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
     tried.insert(3, Tried(Candidate("bias_torque", {}), None))  # a failed fit of another place does not count
     jobs = pair_jobs(None, None, plant, tried, (), (), Policy().pair_top)
@@ -177,7 +177,7 @@ def _six_ranked(plant) -> list[Tried]:
     """Six effects' fits, ranked (BIC 1, 2, ...), for the pair stage's tests: no replay behind them."""
     ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",
               "shaft_compliance"]
-    return [Tried(Candidate(name, {}), FitResult(plant, {}, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+    return [Tried(Candidate(name, {}), FitResult(plant, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
                   {p.name: 0.5 for p in REGISTRY[name].params}) for i, name in enumerate(ranked)]
 
 

@@ -76,9 +76,8 @@ class Tried:
 def own_estimates(res: FitResult, i: int) -> tuple[dict, dict]:
     """Effect ``i``'s fitted values (its numbers, not its options) and their standard errors,
     by the effect's own keys."""
-    prefix = f"effects[{i}]."
     values = {k: v for k, v in res.plant.effects[i].values.items() if not isinstance(v, str)}
-    return values, {k[len(prefix):]: v for k, v in res.stderr.items() if k.startswith(prefix)}
+    return values, {k: p.stderr for k, p in res.of_effect(i).items()}
 
 
 def as_tried(cand: Candidate, res: FitResult) -> Tried:

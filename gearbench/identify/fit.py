@@ -162,13 +162,44 @@ def own_jacobian(jac: np.ndarray, frees: list[Free]) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class Parameter:
+    """A fitted parameter, as lmfit's ``Parameter``: what was free (``free``: its name, bounds,
+    scale, unit and ties), its value (in its own unit, whatever coordinate the fit moved), its
+    standard error (the sandwich covariance, :func:`uncertainty.covariance`, valid for residuals
+    correlated in time), the white-residual formula's (``stderr_white``, for comparison only)
+    and its correlation with each parameter of the fit (``correl``, by name, itself 1)."""
+    free: Free
+    value: float
+    stderr: float
+    stderr_white: float = math.nan
+    correl: dict = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.free.name
+
+    @property
+    def unit(self) -> str:
+        return self.free.unit
+
+    @property
+    def key(self) -> str:
+        """The plant-file key (an effect's) or field path (the plant's)."""
+        return self.free.key
+
+    @property
+    def effect(self) -> int | None:
+        """The number of the plant's effect it belongs to; None for a plant field."""
+        return self.free.index
+
+
 @dataclass
 class FitResult:
-    """A fitted plant: values, standard errors (sandwich, :func:`uncertainty.covariance`) and their
-    correlations by parameter name, errors, convergence."""
+    """A fitted plant: its parameters (:class:`Parameter`, by name: value, standard error,
+    correlations), errors, convergence."""
     plant: Plant
-    values: dict
-    stderr: dict
+    params: dict
     error: float
     rss: float
     n: int
@@ -178,11 +209,37 @@ class FitResult:
     nfev: int
     sim: dict | None = None
     signals: dict = field(default_factory=dict)  # column -> (weighted RSS, n): the evidence of each signal
-    correlation: dict = field(default_factory=dict)  # name -> name -> correlation of the two estimates
-    units: dict = field(default_factory=dict)  # name -> unit of the value and its standard error
-    stderr_white: dict = field(default_factory=dict)  # the white-residual formula's, for comparison only
     seams: tuple = ()  # the window seams (first samples) at which its replay moved the angles (ReplayRun.seams)
     rescored: dict = field(default_factory=dict, repr=False, compare=False)  # seams -> the plant scored there
+
+    @property
+    def values(self) -> dict:
+        """Each parameter's value, by name."""
+        return {n: p.value for n, p in self.params.items()}
+
+    @property
+    def stderr(self) -> dict:
+        """Each parameter's standard error, by name."""
+        return {n: p.stderr for n, p in self.params.items()}
+
+    @property
+    def stderr_white(self) -> dict:
+        """Each parameter's standard error by the white-residual formula (for comparison only)."""
+        return {n: p.stderr_white for n, p in self.params.items()}
+
+    @property
+    def units(self) -> dict:
+        """The unit of each parameter's value and standard error, by name."""
+        return {n: p.unit for n, p in self.params.items()}
+
+    @property
+    def correlation(self) -> dict:
+        """Name -> name -> correlation of the two estimates."""
+        return {n: dict(p.correl) for n, p in self.params.items()}
+
+    def of_effect(self, i: int) -> dict:
+        """The parameters of the plant's effect number ``i``, by its own keys."""
+        return {p.key: p for p in self.params.values() if p.effect == i}
 
     @property
     def weighted_rms(self) -> float:
@@ -201,7 +258,7 @@ def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0, seams: tu
     None) or at exactly ``seams`` (:meth:`Replay.run`)."""
     sim = replay.run(plant, seams=seams)
     w = scorer.weighted(sim)
-    return FitResult(plant, {}, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim,
+    return FitResult(plant, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim,
                      scorer.per_signal(sim), seams=sim.seams)
 
 
@@ -409,7 +466,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
         res, nfev, rounds = _rounds(trials, z0, (lo, hi), central, max_nfev or 40 * (len(frees) + 1), restarts,
                                     rounds_below)
     except ValueError as exc:
-        return FitResult(plant, {}, {}, math.nan, math.nan, 0, len(frees), False,
+        return FitResult(plant, {}, math.nan, math.nan, 0, len(frees), False,
                          f"the fit could not run: {exc}", 0)
     return _result(trials, res, nfev, rounds)
 
@@ -445,7 +502,7 @@ def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
     try:
         sim = replay.run(fitted)
     except ReplayError as exc:
-        return FitResult(plant, {}, {}, math.nan, math.nan, 0, len(frees), False,
+        return FitResult(plant, {}, math.nan, math.nan, 0, len(frees), False,
                          f"the fitted plant does not simulate: {exc}", nfev)
     w = scorer.weighted(sim)
     rss, n, k = float(w @ w), w.size, len(frees)
@@ -453,17 +510,16 @@ def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
     jac = own_jacobian(res.jac / sc, frees)
     names = [f.name for f in frees]
     cov = U.covariance(jac, w, len(objective_signals(replay)))
-    stderr = dict(zip(names, map(float, U.standard_errors(cov))))
+    stderr = U.standard_errors(cov)
     rho = U.correlation(cov)
-    correlation = {a: {b: float(rho[i, j]) for j, b in enumerate(names)} for i, a in enumerate(names)}
-    white = dict(zip(names, map(float, U.standard_errors(U.white_covariance(jac, w)))))
+    white = U.standard_errors(U.white_covariance(jac, w))
     converged = res.status > 0
     msg = res.message if converged else f"did not converge: {res.message}"
     if rounds:
         msg += f" (restarted {rounds}x)"
     if trials.failures and converged:
         msg += f" ({len(trials.failures)} trial simulation(s) failed on the way)"
-    values = {f.name: param_value(fitted, f) for f in frees}
-    return FitResult(fitted if converged else plant, values, stderr, scorer.error(sim), rss, n, k,
-                     converged, msg, nfev, sim, scorer.per_signal(sim), correlation=correlation,
-                     stderr_white=white, units={f.name: f.unit for f in frees}, seams=sim.seams)
+    params = {f.name: Parameter(f, param_value(fitted, f), float(stderr[i]), float(white[i]),
+                                {b: float(rho[i, j]) for j, b in enumerate(names)}) for i, f in enumerate(frees)}
+    return FitResult(fitted if converged else plant, params, scorer.error(sim), rss, n, k,
+                     converged, msg, nfev, sim, scorer.per_signal(sim), seams=sim.seams)
