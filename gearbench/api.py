@@ -33,7 +33,7 @@ import pandas as pd
 
 from . import layout as L
 from .control.controllers import Controller
-from .errors import ConfigError, FitError, GearbenchError, NotConverged, SolverError
+from .errors import ConfigError, FitError, NotConverged, SolverError
 from .experiment.files import Experiment, load_plant
 from .measure.data import COLUMN_UNITS, Measurement, from_frame, read_measurement
 from .plant.components import Plant

@@ -69,7 +69,7 @@ def seams_text(ctx: Context, current: FitResult, new: FitResult) -> str:
 
 def reason(ctx: Context, state: State) -> str:
     """Why the ladder ended, in words (``state.stop``)."""
-    stop, res, p = state.stop, state.model, ctx.policy
+    stop, res = state.stop, state.model
     unit, floor, steps = ctx.replay.unit(ctx.scorer.primary), ctx.scorer.noise_floor, len(state.rungs)
     if stop.why == "interrupted":
         return f"interrupted during step {steps + 1}"

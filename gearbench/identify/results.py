@@ -7,7 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..plant.components import Plant
-from . import calibration
 from .candidates import RANKING, Tried
 from .explain import not_driven, reason, rung_text, simplified_text
 from .fit import FitResult
