@@ -636,6 +636,24 @@ class Comparison:
         return {"plant": self.plant.name, "data": self.data.source, "closed_loop": self.closed_loop,
                 "phases": {}, **extra, "residual_tests": tests}
 
+    def to_markdown(self, title: str, figures: Sequence[str] = ()) -> str:
+        """``compare.md``: per signal the errors against the noise floor, where the primary
+        signal's error sits, the residual tests' sentences, and the ``figures`` (file names beside it)."""
+        md = [f"# {title} (plant {self.plant.name})", "",
+              "| signal | unit | RMS error | max error | noise floor | RMS/noise | relative % |",
+              "|---|---|---|---|---|---|---|"]
+        md += [f"| {r['signal']} | {r['unit']} | {r['rms_error']:.4g} | {r['max_error']:.4g} | {r['noise_floor']:.3g} | "
+               f"{r['ratio_to_noise']:.3g} | {r['relative_error_pct']:.3g} |" for r in self.signals]
+        phases = self.figures.get("phases")
+        if phases:
+            md += ["", f"Where the {self.primary} error sits:", "", "| phase | time share | error share | RMS |",
+                   "|---|---|---|---|"]
+            md += [f"| {k} | {v['time_share']:.1%} | {v['error_share']:.1%} | {v['rms']:.4g} |" for k, v in phases.items()]
+        md += ["", "Residual tests (lagged products within each re-initialisation window):", ""]
+        md += [f"- {v.sentence()}" for v in self.figures.get("residual_tests", {}).values()]
+        md += [""] + [f"![{f}]({f})" for f in figures]
+        return "\n".join(md) + "\n"
+
     def to_pandas(self) -> pd.DataFrame:
         """One row per compared signal (index ``signal``): unit, RMS and maximum
         error, noise floor, their ratio, relative error (%)."""

@@ -107,14 +107,17 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
     the re-initialisations marked, one per signal; the residual against speed,
     position and direction; the residual tests.
     """
+    from .api import Comparison
     from .identify.compare import comparison
     from .report.compare import comparison_figure, residual_figure, residual_tests_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
-        c = comparison(replay, plant, lags=lags)
+        cmp = Comparison(plant, data, replay.closed_loop, comparison(replay, plant, lags=lags), replay.t,
+                         plant_file.name)
     except _errors() as exc:
         _fail(exc)
+    c = cmp.figures
     out = _out_dir(results, "compare", plant_file, data_file)
     t = replay.t
     # Files, not the plant's name: a plant before and after a fit has one name.
@@ -141,24 +144,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
     tests = c["residual_tests"]
     figures.append(save_figure_atomic(residual_tests_figure(tests, f"residual tests: {what}"),
                                       out / "residual_tests.png"))
-    summary = {"plant": plant.name, "plant_file": str(plant_file), "data": str(data_file),
-               "closed_loop": replay.closed_loop, "signals": c["signals"], "primary": c["primary"],
-               "phases": c.get("phases", {}), "reinitialised_s": c["reinitialised_s"],
-               "residual_tests": {k: v.to_json() for k, v in tests.items()},
+    summary = {**cmp.to_dict(), "plant_file": str(plant_file), "data": str(data_file),
                "figures": [str(f) for f in figures]}
-    md = [f"# {what} (plant {plant.name})", "",
-          "| signal | unit | RMS error | max error | noise floor | RMS/noise | relative % |", "|---|---|---|---|---|---|---|"]
-    md += [f"| {r['signal']} | {r['unit']} | {r['rms_error']:.4g} | {r['max_error']:.4g} | {r['noise_floor']:.3g} | "
-           f"{r['ratio_to_noise']:.3g} | {r['relative_error_pct']:.3g} |" for r in c["signals"]]
-    if c.get("phases"):
-        md += ["", f"Where the {c['primary']} error sits:", "", "| phase | time share | error share | RMS |",
-               "|---|---|---|---|"]
-        md += [f"| {k} | {v['time_share']:.1%} | {v['error_share']:.1%} | {v['rms']:.4g} |"
-               for k, v in c["phases"].items()]
-    md += ["", "Residual tests (lagged products within each re-initialisation window):", ""]
-    md += [f"- {v.sentence()}" for v in tests.values()]
-    md += [""] + [f"![{f.name}]({f.name})" for f in figures]
-    write_text_atomic(out / "compare.md", "\n".join(md) + "\n")
+    write_text_atomic(out / "compare.md", cmp.to_markdown(what, [f.name for f in figures]))
     write_text_atomic(out / "compare.json", json.dumps(summary, indent=1) + "\n")
     if as_json:
         echo_json(summary)
@@ -260,26 +248,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
                         title=f"{plant.name}: {data_file.name}", calibration=cal)
     save_figure_atomic(fig, out / "ladder.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
-    md = [f"# diagnose {plant.name} against {data_file.name}", "",
-          f"Error: {j['error_metric']}. Baseline {d.baseline_error:.4g} {d.unit}, noise floor {d.noise_floor:.4g} {d.unit}.",
-          "", f"Verdict: **{d.verdict}**" if d.verdict else f"Verdict: none. {d.reason}.", "",
-          "| step | effect | parameters | error |", "|---|---|---|---|"]
-    md.append(f"| 0 | (baseline) | | {d.baseline_error:.4g} {d.unit} |")
-    for i, s in _rows(d):
-        md.append(f"| | (datasheet values calibrated, below) | | {s:.4g} {d.unit} |" if i is None else
-                  f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
-                  + ", ".join(f"{p} = {v:.4g}" for p, v in s.params.items()) + f" | {s.error:.4g} {d.unit} |")
-    md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(d.ladder, 1)] + ["", "![ladder](ladder.png)"]
-    if d.not_tried:
-        md += ["", "Not tried (they cannot act on this plant and record):", ""]
-        md += [f"- {name}: {why}" for name, why in d.not_tried.items()]
-    if cal:
-        md += ["", "## Calibration of the plant's own values (the final model)", "",
-               "| value | file | calibrated | standard error | unit | tolerance | |", "|---|---|---|---|---|---|---|"]
-        md += [f"| {k} | {c['nominal']:.6g} | {c['value']:.6g} | "
-               f"{'' if c['stderr'] is None else format(c['stderr'], '.3g')} | {c['unit']} | {c['tolerance_pct']:g} % | "
-               f"{c['status']}{': ' + c['message'] if c.get('message') else ''} |" for k, c in cal.items()]
-    write_text_atomic(out / "diagnose.md", "\n".join(md) + "\n")
+    write_text_atomic(out / "diagnose.md", d.to_markdown(f"diagnose {plant.name} against {data_file.name}"))
     if as_json:
         echo_json(j)
         return
@@ -316,7 +285,7 @@ def _print_ladder(d, where) -> None:
     for col in ("step", "effect", "parameters", "error"):
         lad.add_column(col)
     lad.add_row("0", "(as given)", "", f"{d.baseline_error:.4g}")
-    for i, s in _rows(d):
+    for i, s in d.rows():
         if i is None:
             lad.add_row("", "(datasheet values calibrated)", ", ".join(
                 f"{k} = {c['value']:.4g}" for k, c in cal.items() if c["status"] == "calibrated"), f"{s:.4g}")
@@ -344,13 +313,6 @@ def _ladder_progress(disable: bool):
             bar.update(task, description=what, completed=e.done, total=e.total or None,
                        best=f"best so far: {e.best}" if e.best else "")
         yield show
-
-
-def _rows(d):
-    """The ladder's rows after the baseline: ``(number, Step)``, and ``(None, error)`` where the
-    datasheet values were calibrated."""
-    rungs = iter(enumerate(d.ladder, 1))
-    return [(None, st["error"]) if st.get("action") == "calibrate" else next(rungs) for st in d.ladder_steps()[1:]]
 
 
 @click.command()

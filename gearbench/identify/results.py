@@ -72,6 +72,39 @@ class Diagnosis:
                 steps.append({"effect": s.effect, "error": s.error, "action": s.action})
         return steps
 
+    def rows(self) -> list:
+        """The ladder's rows after the baseline: ``(number, Step)``, and ``(None, error)`` where the
+        datasheet values were calibrated."""
+        rungs = iter(enumerate(self.ladder, 1))
+        return [(None, st["error"]) if st.get("action") == "calibrate" else next(rungs)
+                for st in self.ladder_steps()[1:]]
+
+    def to_markdown(self, title: str) -> str:
+        """``diagnose.md``: the verdict, the ladder with each rung's explanation, what was not tried,
+        the calibration; ``ladder.png`` beside it."""
+        unit, cal = self.unit, self.calibration
+        md = [f"# {title}", "",
+              f"Error: RMS of the {self.signal} residual (measured - simulated), {unit}. Baseline "
+              f"{self.baseline_error:.4g} {unit}, noise floor {self.noise_floor:.4g} {unit}.",
+              "", f"Verdict: **{self.verdict}**" if self.verdict else f"Verdict: none. {self.reason}.", "",
+              "| step | effect | parameters | error |", "|---|---|---|---|",
+              f"| 0 | (baseline) | | {self.baseline_error:.4g} {unit} |"]
+        for i, s in self.rows():
+            md.append(f"| | (datasheet values calibrated, below) | | {s:.4g} {unit} |" if i is None else
+                      f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
+                      + ", ".join(f"{p} = {v:.4g}" for p, v in s.params.items()) + f" | {s.error:.4g} {unit} |")
+        md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(self.ladder, 1)] + ["", "![ladder](ladder.png)"]
+        if self.not_tried:
+            md += ["", "Not tried (they cannot act on this plant and record):", ""]
+            md += [f"- {name}: {why}" for name, why in self.not_tried.items()]
+        if cal:
+            md += ["", "## Calibration of the plant's own values (the final model)", "",
+                   "| value | file | calibrated | standard error | unit | tolerance | |", "|---|---|---|---|---|---|---|"]
+            md += [f"| {k} | {c['nominal']:.6g} | {c['value']:.6g} | "
+                   f"{'' if c['stderr'] is None else format(c['stderr'], '.3g')} | {c['unit']} | {c['tolerance_pct']:g} % | "
+                   f"{c['status']}{': ' + c['message'] if c.get('message') else ''} |" for k, c in cal.items()]
+        return "\n".join(md) + "\n"
+
     def to_json(self) -> dict:
         """The SPEC's ``diagnose --json`` object (plus units and explanations).
 
