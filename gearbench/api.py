@@ -898,9 +898,39 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     >>> d.verdict, d.unit
     ('coulomb_friction', 'deg')
     """
+    _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from)
+    return _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
+                            progress)
+
+
+def diagnose_replay(plant: Plant, replay, *, free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
+                    workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
+                    time_limit_s: float | None = None, progress=None) -> DiagnosisReport:
+    """:func:`diagnose` of a plant and a replay already built (``identify.replay.Replay``, as
+    ``gearbench diagnose`` builds it from its files and options), with the same checks.
+
+    Parameters
+    ----------
+    plant : Plant
+        The model.
+    replay : gearbench.identify.replay.Replay
+        The record and how to drive the model with it.
+    free, only, max_steps, workers, calibrate, scheduler, time_limit_s, progress
+        As in :func:`diagnose`.
+
+    Returns
+    -------
+    DiagnosisReport
+    """
+    _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
+    return _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
+                            progress)
+
+
+def _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only) -> None:
+    """:func:`diagnose`'s arguments checked, every problem named at once (``ConfigError``)."""
     from .identify.candidates import unknown_effects
-    from .identify.diagnose import diagnose as _diagnose
-    where = "diagnose"
     problems: list[str] = []
     Number("steps", integer=True).check(max_steps, "max_steps", problems)
     if workers is not None:
@@ -915,8 +945,12 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
             problems.append(f"{key} must be a sequence of strings, got {show(seq)}")
     if not problems:
         problems += unknown_effects(only, "only")
-    _raise(where, problems)
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from)
+    _raise("diagnose", problems)
+
+
+def _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
+                     progress) -> DiagnosisReport:
+    from .identify.diagnose import diagnose as _diagnose
     from .identify.fit import Free
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving

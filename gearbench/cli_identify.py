@@ -226,15 +226,16 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
     cleanly: the ladder so far is printed and the exit status is 130.
     """
-    from .identify.diagnose import diagnose as run_diagnosis
+    from .api import diagnose_replay
     from .report.compare import ladder_figure
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
         names = tuple(n.strip() for n in only.split(",") if n.strip())
         with _ladder_progress(disable=quiet or as_json) as show:
-            d = run_diagnosis(plant, replay, tuple(free), max_steps, workers, progress=show, only=names,
-                              calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler)
+            d = diagnose_replay(plant, replay, free=free, only=names, max_steps=max_steps, workers=workers,
+                                calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler,
+                                progress=show).diagnosis
     except _errors() as exc:
         _fail(exc)
     except DiagnosisInterrupted as stop:
