@@ -238,7 +238,7 @@ def profile_input(plant: Plant, number: int, duration_s: float = 10.0,
     what a record's input column holds), else the applied drive.  Replayed
     open loop, it is a realistic closed-loop-looking excitation.
     """
-    from ..profiles import load_profile
+    from .profiles import load_profile
 
     if number not in (1, 2, 3):
         raise ValueError(f"profile:N takes N = 1, 2 or 3 (the thesis profiles), got {number}")
