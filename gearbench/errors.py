@@ -193,7 +193,7 @@ class DiagnosisInterrupted(GearbenchInterrupt):
     """Ctrl-C during the ladder: ``diagnosis`` is the ladder as far as it got (its ``stopped`` is
     ``"interrupted"``).  A KeyboardInterrupt, so code that does not look for it stops as before.
 
-    ``diagnosis`` is a :class:`gearbench.identify.diagnose.Diagnosis` (not imported here:
+    ``diagnosis`` is a :class:`gearbench.identify.results.Diagnosis` (not imported here:
     this module imports nothing of the package).
     """
 
