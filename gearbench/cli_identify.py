@@ -334,8 +334,8 @@ def _ladder_progress(disable: bool):
               help="The new plant file (written only if the fit converges).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print {converged, effect, values, stderr, units, correlation (parameter -> parameter -> "
-                   "correlation of the two estimates), error_before, error_after, error_signal, "
-                   "output, tried} as one JSON object on stdout instead of the table.")
+                   "correlation of the two estimates), error_before, error_after, error_unit, error_signal, "
+                   "message (the optimiser's), output, tried} as one JSON object on stdout instead of the table.")
 def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, effect_spec, free, refit,
         calibrate, max_evals, scheduler, output, as_json):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
@@ -376,10 +376,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, f.plant,
                                                 f.stderr, header, f.units))
     if as_json:
-        echo_json({"converged": True, "effect": f.effect, "values": f.values,
-                   "stderr": f.stderr, "units": f.units, "correlation": f.correlation,
-                   "error_signal": f.signal, "error_before": f.error_before,
-                   "error_after": f.error_after, "output": str(output), "tried": f.tried})
+        echo_json({"converged": True, **f.to_dict(), "output": str(output)})
         console.print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output}",
                       highlight=False)
         return
