@@ -223,7 +223,9 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     candidate explains the residual.
 
     A progress display on stderr follows the whole ladder: the step, the stage (candidates, joint
-    refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
+    refit, calibration, pairs, ...), the fit just finished and the best so far; when stderr is not a
+    terminal, plain lines (one per stage, at most one every 5 s otherwise; none with --quiet or
+    --json).  Ctrl-C stops
     cleanly: the ladder so far is printed and the exit status is 130.
     """
     from .api import diagnose_replay
@@ -300,9 +302,15 @@ def _print_ladder(d, where) -> None:
 @contextmanager
 def _ladder_progress(disable: bool):
     """A rich progress display of the whole ladder on stderr; yields the callback ``diagnose`` takes
-    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``."""
+    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``.  When stderr is not a
+    terminal (a CI log, ``| tee``), plain lines instead (:class:`~gearbench.identify.progress.PlainLines`:
+    one per stage, at most one every 5 s otherwise)."""
     if disable:
         yield None
+        return
+    if not console.is_terminal:
+        from .identify.progress import PlainLines
+        yield PlainLines(lambda text: click.echo(text, err=True))
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),

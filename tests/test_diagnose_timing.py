@@ -8,9 +8,11 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from click.testing import CliRunner
 
 import gearbench as gb
-from gearbench.identify.progress import STAGES
+from gearbench.cli import main
+from gearbench.identify.progress import STAGES, PlainLines, ProgressEvent
 from gearbench.identify.replay import Replay
 from gearbench.identify.timing import Cost, Timing
 from gearbench.measure.data import read_measurement
@@ -101,3 +103,29 @@ def test_stages_nest_and_end():
     assert r["wall_s"] == 5.0
     assert r["stages"] == [{"stage": "pairs", "wall_s": 2.0, "replays": 1, "solver_steps": 5, "fits": 0},
                            {"stage": "candidates", "wall_s": 2.0, "replays": 1, "solver_steps": 10, "fits": 0}]
+
+
+def test_plain_lines_one_per_stage_and_at_most_one_every_few_seconds():
+    now, lines = [0.0], []
+    show = PlainLines(lines.append, every_s=5.0, clock=lambda: now[0])
+    for i in range(10):
+        now[0] = i
+        show(ProgressEvent(1, "candidates", i, 9, "coulomb_friction (load)" if i else "", "", float(i)))
+    now[0] = 10.0
+    show(ProgressEvent(1, "joint refit", 0, 2, "", "", 10.0))
+    assert lines == ["diagnose: step 1 candidates 0/9, 0 s",
+                     "diagnose: step 1 candidates 5/9 (coulomb_friction (load)), 5 s",
+                     "diagnose: step 1 joint refit 0/2, 10 s"]
+
+
+def test_progress_lines_on_a_stderr_that_is_not_a_terminal_and_none_with_quiet(short, tmp_path):
+    args = ["diagnose", str(RIG), str(short), "--only", "coulomb_friction", "--max-steps", "1",
+            "--workers", "1", "--results", str(tmp_path)]
+    r = CliRunner().invoke(main, args, catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("diagnose: ")]
+    assert lines and lines[0].startswith("diagnose: step 1 baseline 0/1, ") and lines[0].endswith(" s"), r.stderr
+    assert any(ln.startswith("diagnose: step 1 candidates ") for ln in lines), lines
+    assert "diagnose: " not in r.stdout
+    quiet = CliRunner().invoke(main, args + ["--quiet"], catch_exceptions=False)
+    assert quiet.exit_code == 0 and "diagnose: " not in quiet.stderr, quiet.stderr

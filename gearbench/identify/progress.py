@@ -71,3 +71,32 @@ class StageCounter:
         if self.tracker.callback is not None:
             self.tracker.callback(ProgressEvent(self.step, self.name, self.done, self.total, item.label(),
                                                 self.best[1] if self.best else "", self.tracker.elapsed_s))
+
+
+class PlainLines:
+    """A progress callback for a stream that is not a terminal (a CI log, ``| tee``): one plain line
+    per change of step or stage, and otherwise at most one every ``every_s`` seconds, as tqdm and
+    rich do off a terminal, e.g. ``diagnose: step 1 candidates 3/7 (coulomb_friction (load)), 41 s``.
+    ``write`` takes each line (without its newline)."""
+
+    def __init__(self, write: Callable[[str], None], every_s: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic):
+        self.write, self.every_s, self.clock = write, every_s, clock
+        self.last: tuple | None = None   # (step, stage) of the last line
+        self.last_t = -float("inf")
+
+    def __call__(self, e: ProgressEvent) -> None:
+        now = self.clock()
+        if (e.step, e.stage) == self.last and now - self.last_t < self.every_s:
+            return
+        self.last, self.last_t = (e.step, e.stage), now
+        self.write(line(e))
+
+
+def line(e: ProgressEvent) -> str:
+    """One plain progress line of ``e``."""
+    what = f"diagnose: step {e.step} {e.stage} {e.done}/{e.total}"
+    if e.label:
+        what += f" ({e.label})"
+    what += f", {e.elapsed_s:.0f} s"
+    return what + (f"; best so far {e.best}" if e.best else "")
