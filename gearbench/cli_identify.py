@@ -205,7 +205,11 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
                    "\"nothing pays\", \"max steps\" or \"time limit\".  'noise_floors': each signal's floor, "
                    "unit and whether it was stated (--noise); 'residual_tests': the final model's, per signal "
                    "(white, input_independent, lag1, ljung_box_p, sentence); 'not_tried': the effects that "
-                   "cannot act on this plant and record, each with why.")
+                   "cannot act on this plant and record, each with why; 'timing': where the time went, "
+                   "{wall_s, stages: [{stage, wall_s, replays, solver_steps, fits}], candidates: [{effect, "
+                   "wall_s, replays, fits}]} (a replay: one simulation of the record, all its windows; "
+                   "solver_steps: the integrator's accepted steps; fits: least-squares fits; a candidate's "
+                   "wall_s is its own fits' time wherever they ran, pairs as \"a+b\"; docs/diagnose-json.md).")
 def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, calibrate,
              max_steps, time_limit_s, workers, scheduler, quiet, results, as_json):
     """Which physical effect is the model missing?
