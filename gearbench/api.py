@@ -796,6 +796,13 @@ class DiagnosisReport:
         return self.diagnosis.noise_floor
 
     @property
+    def timing(self) -> dict:
+        """Where the diagnosis spent its time (``to_dict()["timing"]``): ``wall_s``, and per stage and
+        per candidate effect the wall time, replays, solver steps (stages) and fits
+        (``docs/diagnose-json.md``)."""
+        return self.diagnosis.timing
+
+    @property
     def unit(self) -> str:
         return self.diagnosis.unit
 

@@ -205,7 +205,11 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
                    "\"nothing pays\", \"max steps\" or \"time limit\".  'noise_floors': each signal's floor, "
                    "unit and whether it was stated (--noise); 'residual_tests': the final model's, per signal "
                    "(white, input_independent, lag1, ljung_box_p, sentence); 'not_tried': the effects that "
-                   "cannot act on this plant and record, each with why.")
+                   "cannot act on this plant and record, each with why; 'timing': where the time went, "
+                   "{wall_s, stages: [{stage, wall_s, replays, solver_steps, fits}], candidates: [{effect, "
+                   "wall_s, replays, fits}]} (a replay: one simulation of the record, all its windows; "
+                   "solver_steps: the integrator's accepted steps; fits: least-squares fits; a candidate's "
+                   "wall_s is its own fits' time wherever they ran, pairs as \"a+b\"; docs/diagnose-json.md).")
 def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, calibrate,
              max_steps, time_limit_s, workers, scheduler, quiet, results, as_json):
     """Which physical effect is the model missing?
@@ -223,7 +227,9 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     candidate explains the residual.
 
     A progress display on stderr follows the whole ladder: the step, the stage (candidates, joint
-    refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
+    refit, calibration, pairs, ...), the fit just finished and the best so far; when stderr is not a
+    terminal, plain lines (one per stage, at most one every 5 s otherwise; none with --quiet or
+    --json).  Ctrl-C stops
     cleanly: the ladder so far is printed and the exit status is 130.
     """
     from .api import diagnose_replay
@@ -300,9 +306,15 @@ def _print_ladder(d, where) -> None:
 @contextmanager
 def _ladder_progress(disable: bool):
     """A rich progress display of the whole ladder on stderr; yields the callback ``diagnose`` takes
-    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``."""
+    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``.  When stderr is not a
+    terminal (a CI log, ``| tee``), plain lines instead (:class:`~gearbench.identify.progress.PlainLines`:
+    one per stage, at most one every 5 s otherwise)."""
     if disable:
         yield None
+        return
+    if not console.is_terminal:
+        from .identify.progress import PlainLines
+        yield PlainLines(lambda text: click.echo(text, err=True))
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
