@@ -53,6 +53,8 @@ figcaption { color: var(--muted); font-size: 0.88em; margin-top: 3px; }
 ol.explain li, ul.plain li { margin-bottom: 6px; }
 .yes { color: var(--good); font-weight: 600; }
 .no { color: var(--bad); font-weight: 600; }
+.row { display: flex; flex-wrap: wrap; gap: 0 44px; }
+.row > section { flex: 1 1 420px; min-width: 0; }
 footer { margin-top: 36px; color: var(--muted); font-size: 0.82em; border-top: 1px solid var(--rule);
          padding-top: 6px; }
 .card { font: 13px/1.35 system-ui, sans-serif; }
@@ -141,6 +143,11 @@ def section(title: str, *parts: str, section_id: str = "") -> str:
     return f"<section{sid}>\n<h2>{esc(title)}</h2>\n" + "\n".join(p for p in parts if p) + "\n</section>"
 
 
+def row(*sections: str) -> str:
+    """Sections side by side where the page is wide enough (one under the other where not)."""
+    return '<div class="row">' + "\n".join(s for s in sections if s) + "</div>"
+
+
 def files(items: Mapping[str, Any]) -> str:
     """A definition list of what the page is about: files, plant, loop."""
     return '<dl class="files">' + "".join(f"<dt>{esc(k)}</dt><dd>{esc(v)}</dd>" for k, v in items.items()
@@ -211,9 +218,11 @@ def residual_tests_block(tests: Mapping) -> str:
 
 def noise_table(noise: Mapping) -> str:
     """Per compared column its noise floor (its unit) and where it came from."""
-    return table(["signal", "noise floor", "unit", "from"],
-                 [[k, num(v["floor"], ".4g"), v["unit"], "stated" if v.get("stated") else "read from the record "
-                   "(third differences)"] for k, v in noise.items()], numeric=(1,))
+    return (table(["signal", "noise floor", "unit", "from"],
+                  [[k, num(v["floor"], ".4g"), v["unit"], "stated" if v.get("stated") else "the record"]
+                   for k, v in noise.items()], numeric=(1,))
+            + "<p class=sub>Each floor is the column's noise, a standard deviation in its unit: stated (--noise, "
+              "--noise-from) or read from the record's third differences (white noise assumed).</p>")
 
 
 def _caption(file_name: str, primary: str) -> str:
@@ -280,7 +289,7 @@ def comparison_page(cmp, plant_file: str | Path | None = None, data_file: str | 
     noise = table(["signal", "noise floor", "unit"],
                   [[r["signal"], num(r["noise_floor"], ".4g"), r["unit"]] for r in cmp.signals], numeric=(1,))
     return page(f"compare: {what}", "Where the model fails against the record, signal by signal.",
-                [section("Files", head, section_id="files"), section("Noise floors", noise, section_id="noise"),
+                [row(section("Files", head, section_id="files"), section("Noise floors", noise, section_id="noise")),
                  *comparison_sections(cmp, what, images)])
 
 
@@ -476,8 +485,9 @@ def diagnosis_page(report, plant_file: str | Path | None = None, data_file: str 
         if d.ladder else "<p>No rung: nothing was added.</p>"
     not_tried = ('<ul class="plain">' + "".join(f"<li><b>{esc(k)}</b>: {esc(v)}</li>" for k, v in d.not_tried.items())
                  + "</ul>") if d.not_tried else "<p>Every effect of the library could act here.</p>"
-    body = [f'<p class="verdict">{verdict}</p>', section("Files", head, section_id="files"),
-            section("Noise floors", noise_table(j["noise_floors"]), section_id="noise"),
+    body = [f'<p class="verdict">{verdict}</p>',
+            row(section("Files", head, section_id="files"),
+                section("Noise floors", noise_table(j["noise_floors"]), section_id="noise")),
             section("The ladder", ladder_table(d), figure(ladder, "the error as effects are added"), *before_after,
                     section_id="ladder-section"),
             section("Why: the explanation of each step", explain, section_id="explanations"),
@@ -516,6 +526,30 @@ def correlation_table(correlation: Mapping) -> str:
                  numeric=tuple(range(1, len(names) + 1)))
 
 
+def _fit_replay_sections(f, what: str, plant_name: str) -> tuple[str, list[str]]:
+    """With a fit's replay: the noise floors, then the plant before the fit against the record
+    (one replay) and the fitted model's comparison blocks."""
+    from ..api import Comparison
+    from ..identify.compare import comparison
+    from .compare import comparison_figure
+    replay = f.replay
+    c = comparison(replay, f.plant)
+    cmp = Comparison(f.plant, replay.data, replay.closed_loop, c, replay.t, plant_name)
+    floors = {n: {"floor": replay.noise_floor(n), "unit": replay.unit(n), "stated": n in (replay.noise_std or {})}
+              for n in replay.compared()}
+    out = []
+    base = getattr(f, "base_plant", None)
+    if base is not None:
+        p = c["primary"]
+        sim = replay.run(base)
+        out.append(section("Before the fit", figure(comparison_figure(
+            replay.t, replay.measured(p), sim[p], c.get("labels"), p, replay.unit(p),
+            title=f"before: the plant without {f.effect}, {what}", reinit_s=sim.reinitialised_s),
+            f"before: {p} measured and simulated by the plant without {f.effect}"), section_id="before"))
+    out += comparison_sections(cmp, what, heading="The fitted model against the record", table_id="fit-signals")
+    return section("Noise floors", noise_table(floors), section_id="noise"), out
+
+
 def fit_page(f, plant_file: str | Path | None = None, data_file: str | Path | None = None,
              output: str | Path | None = None) -> str:
     """The HTML page of a fit (``gearbench fit``).
@@ -535,7 +569,6 @@ def fit_page(f, plant_file: str | Path | None = None, data_file: str | Path | No
     str
         The whole document.
     """
-    from .compare import comparison_figure
     replay = getattr(f, "replay", None)
     plant_name = str(plant_file) if plant_file else (getattr(f, "plant_label", "") or f.plant.name)
     data_name = str(data_file) if data_file else (replay.data.source if replay is not None else "")
@@ -549,27 +582,11 @@ def fit_page(f, plant_file: str | Path | None = None, data_file: str | Path | No
             + ".</p>")
     tried = table(["place", "converged", "note"], [[t["effect"], yes_no(t["converged"]), t.get("note", "")]
                                                    for t in f.tried]) if f.tried else ""
-    body = [said, section("Files", head, section_id="files"),
+    noise, against = _fit_replay_sections(f, what, plant_name) if replay is not None else ("", [])
+    body = [said, row(section("Files", head, section_id="files"), noise),
             section("Fitted values", values_table(f), "<h3>Correlations of the estimates</h3>",
                     correlation_table(f.correlation), section_id="fitted"),
-            section("Places tried", tried or "<p>One place.</p>", section_id="tried")]
-    if replay is not None:
-        from ..api import Comparison
-        from ..identify.compare import comparison
-        c = comparison(replay, f.plant)
-        cmp = Comparison(f.plant, replay.data, replay.closed_loop, c, replay.t, plant_name)
-        floors = {n: {"floor": replay.noise_floor(n), "unit": replay.unit(n), "stated": n in (replay.noise_std or {})}
-                  for n in replay.compared()}
-        body.insert(2, section("Noise floors", noise_table(floors), section_id="noise"))
-        base = getattr(f, "base_plant", None)
-        if base is not None:
-            p = c["primary"]
-            sim = replay.run(base)
-            body.append(section("Before the fit", figure(comparison_figure(
-                replay.t, replay.measured(p), sim[p], c.get("labels"), p, replay.unit(p),
-                title=f"before: the plant without {f.effect}, {what}", reinit_s=sim.reinitialised_s),
-                f"before: {p} measured and simulated by the plant without {f.effect}"), section_id="before"))
-        body += comparison_sections(cmp, what, heading="The fitted model against the record", table_id="fit-signals")
+            section("Places tried", tried or "<p>One place.</p>", section_id="tried"), *against]
     return page(f"fit: {f.effect}, {what}", "An effect added to the plant and fitted to the record.", body)
 
 
