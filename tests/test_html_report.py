@@ -123,7 +123,7 @@ def _pixels(png: bytes) -> np.ndarray:
 
 
 @pytest.mark.parametrize("kind", list(MAIN_TABLE))
-def test_the_report_opens_in_chromium(reports, chromium, kind):
+def test_the_report_opens_in_chromium(chromium, reports, kind):
     page = chromium.new_page(viewport=VIEWPORT)
     errors, failed, requests = [], [], []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
