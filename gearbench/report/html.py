@@ -421,20 +421,20 @@ def _replay_figures(report, what: str) -> tuple[list[str], list[str]]:
     """With the report's replay: the primary residual after each rung (one figure) and the baseline's
     primary signal against the record ("before"); then the final model's comparison blocks."""
     from ..api import Comparison
+    from ..errors import GearbenchError
     from ..identify.compare import comparison
     from .compare import comparison_figure, rung_residuals_figure
     d, replay = report.diagnosis, report.replay
     final = comparison(replay, d.plant)
     cmp = Comparison(d.plant, replay.data, replay.closed_loop, final, replay.t, report.plant_label or d.plant.name)
     p, labels = final["primary"], final.get("labels")
-    models = [("baseline (the plant as given)", d.baseline_plant)]
+    sims = [("baseline (the plant as given)", replay.run(d.baseline_plant))]
     for i, s in enumerate(d.ladder, 1):
         try:
-            models.append((f"after step {i}: {'- ' if s.action == 'remove' else '+ '}{s.effect}", _rung_plant(
-                d.baseline_plant, s)))
-        except (ValueError, KeyError, TypeError):
-            continue  # a model the plant file cannot hold (an effect from elsewhere): its panel is left out
-    sims = [(label, replay.run(plant)) for label, plant in models]
+            sims.append((f"after step {i}: {'- ' if s.action == 'remove' else '+ '}{s.effect}",
+                         replay.run(_rung_plant(d.baseline_plant, s))))
+        except (GearbenchError, ValueError, KeyError, TypeError):
+            continue  # a model the plant file cannot hold, or the solver cannot replay: its panel is left out
     res = [(label, replay.residuals(sim)[p]) for label, sim in sims]
     note = " (the datasheet values as the file has them)" if d.calibration_step is not None else ""
     unit = replay.unit(p)
