@@ -762,6 +762,14 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
+def _comparison(plant: Plant, replay, label: str) -> Comparison:
+    """``plant`` against the record of ``replay``, as :func:`compare` gives it."""
+    from .identify.compare import comparison
+    if replay is None:
+        raise ConfigError("comparison", "this result keeps no replay of its record (made before reports kept one)")
+    return Comparison(plant, replay.data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
+
+
 @dataclass
 class DiagnosisReport:
     """Which effect a model is missing: the candidates ranked, the verdict, the ladder.
@@ -790,6 +798,11 @@ class DiagnosisReport:
     diagnosis: Any = field(repr=False)
     replay: Any = field(default=None, repr=False)
     plant_label: str = ""
+
+    def comparison(self) -> Comparison:
+        """The fitted model against the record it was fitted on (needs ``replay``): a
+        :class:`Comparison`, as :func:`compare` gives it."""
+        return _comparison(self.plant, self.replay, self.plant_label)
 
     @property
     def verdict(self) -> str | None:
@@ -1093,6 +1106,11 @@ class FitReport:
     replay: Any = field(default=None, repr=False)
     base_plant: Plant | None = field(default=None, repr=False)
     plant_label: str = ""
+
+    def comparison(self) -> Comparison:
+        """The fitted model against the record it was fitted on (needs ``replay``): a
+        :class:`Comparison`, as :func:`compare` gives it."""
+        return _comparison(self.plant, self.replay, self.plant_label)
 
     def to_html(self, path: str | Path | None = None, output: str | Path | None = None) -> str:
         """The fit as one self-contained HTML page, as ``gearbench fit`` writes it: the files,

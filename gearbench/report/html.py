@@ -420,13 +420,11 @@ def timing_block(timing: Mapping | None) -> str:
 def _replay_figures(report, what: str) -> tuple[list[str], list[str]]:
     """With the report's replay: the primary residual after each rung (one figure) and the baseline's
     primary signal against the record ("before"); then the final model's comparison blocks."""
-    from ..api import Comparison
     from ..errors import GearbenchError
-    from ..identify.compare import comparison
     from .compare import comparison_figure, rung_residuals_figure
     d, replay = report.diagnosis, report.replay
-    final = comparison(replay, d.plant)
-    cmp = Comparison(d.plant, replay.data, replay.closed_loop, final, replay.t, report.plant_label or d.plant.name)
+    cmp = report.comparison()
+    final = cmp.figures
     p, labels = final["primary"], final.get("labels")
     sims = [("baseline (the plant as given)", replay.run(d.baseline_plant))]
     for i, s in enumerate(d.ladder, 1):
@@ -529,12 +527,11 @@ def correlation_table(correlation: Mapping) -> str:
 def _fit_replay_sections(f, what: str, plant_name: str) -> tuple[str, list[str]]:
     """With a fit's replay: the noise floors, then the plant before the fit against the record
     (one replay) and the fitted model's comparison blocks."""
-    from ..api import Comparison
-    from ..identify.compare import comparison
     from .compare import comparison_figure
+    from dataclasses import replace
     replay = f.replay
-    c = comparison(replay, f.plant)
-    cmp = Comparison(f.plant, replay.data, replay.closed_loop, c, replay.t, plant_name)
+    cmp = replace(f.comparison(), plant_label=plant_name)
+    c = cmp.figures
     floors = {n: {"floor": replay.noise_floor(n), "unit": replay.unit(n), "stated": n in (replay.noise_std or {})}
               for n in replay.compared()}
     out = []
