@@ -33,7 +33,7 @@ import numpy as np
 from .. import layout as L
 from ..errors import ReplayError, ReplayRunError
 from ..measure.data import Measurement
-from ..measure.noise import noise_floor, rest_noise
+from ..measure.noise import noise_estimate, rest_noise
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
@@ -194,7 +194,16 @@ class Replay:
         (``noise_std``), else :func:`gearbench.measure.noise.noise_floor` of the record's column."""
         if name in self.noise_std:
             return self.noise_std[name]
-        return noise_floor(self.measured(name))
+        return noise_estimate(self.measured(name)).floor
+
+    def noise_rule(self, name: str) -> str:
+        """How :meth:`noise_floor` read compared column ``name``'s floor: ``"stated"`` (``noise_std``:
+        given, or from a record at rest), else the rule of
+        :func:`gearbench.measure.noise.noise_estimate` (a key of ``measure.noise.RULES``:
+        ``"differences"``, ``"quantum"``, ``"quantized differences"``)."""
+        if name in self.noise_std:
+            return "stated"
+        return noise_estimate(self.measured(name)).rule
 
     def compared(self) -> list[str]:
         """The columns a replay predicts: the measured signals, and the input in closed loop."""

@@ -119,7 +119,8 @@ class Diagnosis:
         after it and its BIC change, else null.
         ``stopped``: why the ladder ended, one of :data:`STOPPED` (``reason`` says it in words).
         ``noise_floors``: per compared column its noise ``floor`` (the residuals' weight), ``unit``,
-        and whether it was ``stated`` (``Replay.noise_std``) or read from the record.
+        whether it was ``stated`` (``Replay.noise_std``) or read from the record, and its ``rule``
+        (``Replay.noise_rule``: ``stated``, or how ``measure.noise.noise_estimate`` read it).
         ``residual_tests``: per compared column, the final model's residual tests
         (``residuals.ResidualTest``: ``white``, ``input_independent``, ``lag1`` its lag-1
         autocorrelation, ``ljung_box_p``, ``sentence``).
@@ -173,8 +174,9 @@ def candidate_json(t: Tried) -> dict:
 
 
 def noise(replay: Replay, scorer: Scorer) -> dict:
-    """Per weighed column: its noise floor, unit and whether it was stated."""
-    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std} for n, f in scorer.floors.items()}
+    """Per weighed column: its noise floor, unit, whether it was stated, and the rule it was read by."""
+    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": replay.noise_rule(n)}
+            for n, f in scorer.floors.items()}
 
 
 def residual_tests(replay: Replay, plant: Plant, res: FitResult) -> dict:
