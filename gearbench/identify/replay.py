@@ -273,12 +273,18 @@ class Replay:
         smooth where the model is right, whatever the motion: a polynomial fit of the
         measurement alone is biased where the motion is not polynomial (a motor crossing
         the clearance at 33 rad/s in practice case p03: it moved a right model 0.35 deg and
-        its motor-angle error went from 0.98x to 38x the noise).  True if it moved them."""
+        its motor-angle error went from 0.98x to 38x the noise).  The model's signal carries its
+        constant sensor effects (``Effect.shifts``: a ``sensor_offset`` on that angle), so a right
+        offset is no drift.  True if it moved them."""
         name, th = motion
         m = min(RESET_SAMPLES, len(out_prev))
         if th is None or m < 3:
             return False
-        sim = S.to_output_rad(name, S.from_outputs(name, out_prev[-m:], plant), plant)
+        y = S.from_outputs(name, out_prev[-m:], plant)
+        for e in plant.effects:  # a sensor's constant (``Effect.shifts``) is no drift of the model
+            if e.effect.shifts:
+                y = e.effect.measure(e.values, name, y, self.t[a - m:a], plant)
+        sim = S.to_output_rad(name, y, plant)
         d = th[a - m:a] - sim
         # the difference grows while the model drifts: its straight line, evaluated at sample a
         tt = self.t[a - m:a] - self.t[a]
