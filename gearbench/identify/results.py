@@ -59,6 +59,7 @@ class Diagnosis:
     noise: dict = field(default_factory=dict)  # column -> {floor, unit, stated}
     residual_tests: dict = field(default_factory=dict)  # column -> residuals.ResidualTest of the final model
     not_tried: dict = field(default_factory=dict)  # effect -> why it cannot act on this plant and record
+    gaps: dict | None = None  # measure.gaps.Gaps.to_dict() of the record's missing samples, when asked to fill them
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -126,6 +127,8 @@ class Diagnosis:
         autocorrelation, ``ljung_box_p``, ``sentence``).
         ``not_tried``: the effects of the library (of ``only``) that cannot act on this plant and
         record, each with why (:func:`not_tried`).
+        ``gaps`` (only when the record was read with ``gaps=``/``--gaps``): the missing samples filled
+        or dropped, ``measure.gaps.Gaps.to_dict()``.
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
@@ -154,6 +157,7 @@ class Diagnosis:
                                       "sentence": t.sentence()}
                                for name, t in self.residual_tests.items()},
             "not_tried": self.not_tried,
+            **({"gaps": self.gaps} if self.gaps else {}),
             "calibration": self.calibration,
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
@@ -220,4 +224,5 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
                      list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
                      scorer.relative_pct(base.sim),
                      ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
-                     why, noise(replay, scorer), tests, not_tried)
+                     why, noise(replay, scorer), tests, not_tried,
+                     replay.data.gaps.to_dict() if replay.data.gaps else None)
