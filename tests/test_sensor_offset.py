@@ -171,3 +171,17 @@ def test_encoder_quantization_is_a_candidate_on_any_angle_and_reads_its_counts(r
     assert eq.estimate({"signal": signal}, data.signals, rig) == {"counts_per_rev": 4096}
     other = "load_angle_deg" if signal == "motor_angle_deg" else "motor_angle_deg"
     assert eq.estimate({"signal": other}, data.signals, rig) is None    # noisy: on no grid
+
+
+def test_diagnose_finds_the_current_offset_and_none_on_the_null(rig):
+    """Among the sensor effects and the bias it is confounded with: the offset record's first rung is
+    the offset on the current, within 3 standard errors of the truth; the null record (the same
+    coloured, quantized sensors, no offset) takes no offset on any signal."""
+    import gearbench as gb
+    only = ("sensor_offset", "bias_torque", "encoder_quantization")
+    d = gb.diagnose(rig, real_sensors(rig, 1, OFFSET_A), only=only, workers=1, max_steps=2).diagnosis
+    first = d.ladder[0]
+    assert (first.effect, first.options) == ("sensor_offset", {"signal": "current_A"})
+    assert abs(first.params["offset"] - OFFSET_A) <= 3 * first.stderr["offset"] + solver_share(rig, 1)
+    null = gb.diagnose(rig, real_sensors(rig, 2, 0.0), only=only, workers=1, max_steps=2).diagnosis
+    assert "sensor_offset" not in [s.effect for s in null.ladder], [(s.effect, s.params) for s in null.ladder]
