@@ -35,7 +35,8 @@ from . import layout as L
 from .control.controllers import Controller
 from .errors import ConfigError, FitError, NotConverged, SolverError
 from .experiment.files import Experiment, load_plant
-from .measure.data import COLUMN_UNITS, Measurement, from_frame, read_measurement
+from .measure.data import COLUMN_UNITS, Measurement, from_frame, read_measurement, with_gaps
+from .measure.gaps import MODES as GAP_MODES, check_grid, entry as gaps_entry
 from .plant.components import Plant
 from .profiles import Profile, load_profile
 from .schema import Number, check_mapping, show, unknown_key
@@ -186,7 +187,7 @@ def setpoint(start_s: Sequence[float], value_deg: Sequence[float],
                    tuple(map(float, arrays["slope_deg_per_s"])), float(duration_s))
 
 
-def load_measurement(source: str | Path | pd.DataFrame | Measurement) -> Measurement:
+def load_measurement(source: str | Path | pd.DataFrame | Measurement, gaps: str | None = None) -> Measurement:
     """A measured record, checked: from a measurement CSV, a DataFrame, or as given.
 
     The columns are the measurement format's (``time_s``, one input such as
@@ -198,6 +199,10 @@ def load_measurement(source: str | Path | pd.DataFrame | Measurement) -> Measure
     ----------
     source : str, Path, pandas.DataFrame or Measurement
         A CSV file, a table with the file's column names, or a record.
+    gaps : {'interpolate', 'drop'}, optional
+        Fill or drop a few missing samples (empty cells, rows missing from the time
+        grid; :mod:`gearbench.measure.gaps`); the record's ``gaps`` says how many and
+        where.  Default: refuse them.
 
     Returns
     -------
@@ -217,12 +222,15 @@ def load_measurement(source: str | Path | pd.DataFrame | Measurement) -> Measure
     >>> data.input_name, sorted(data.signals), round(data.duration_s, 3)
     ('voltage_V', ['current_A', 'load_angle_deg', 'motor_angle_deg'], 10.0)
     """
+    if gaps is not None and gaps not in GAP_MODES:
+        raise ConfigError("load_measurement", f"gaps must be None (refuse missing samples) or one of "
+                                              f"{', '.join(GAP_MODES)}, got {show(gaps)}")
     if isinstance(source, Measurement):
-        return source
+        return source if gaps is None or source.gaps is not None else with_gaps(source, gaps)
     if isinstance(source, pd.DataFrame):
-        return from_frame(source, source="<DataFrame>")
+        return from_frame(source, source="<DataFrame>", gaps=gaps)
     if isinstance(source, (str, Path)):
-        return read_measurement(source)
+        return read_measurement(source, gaps=gaps)
     raise ConfigError("load_measurement", f"source must be a measurement CSV path, a DataFrame or a "
                                           f"Measurement, got {show(source)}")
 
@@ -545,14 +553,17 @@ def run_experiment(experiment: Experiment | str | Path, *, workers: int | None =
 # ------------------------------------------------------ models against data
 
 def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float, where: str,
-            noise_std: Mapping | None = None, noise_from: Any = None):
+            noise_std: Mapping | None = None, noise_from: Any = None, gaps: str | None = None):
     """Plant, record and replay, every argument checked before any solving (the CLI's ``_setup``
-    reads the files, then comes here)."""
+    reads the files, then comes here).  ``gaps``: what to do with missing samples (``load_measurement``);
+    without it a record missing rows from its time grid is refused (``measure.gaps.check_grid``)."""
     from .control.sampled import SampledPV
     from .experiment.controller_file import load_controller
     from .identify.replay import Replay, solver_options, stated_noise
     plant = _as_plant(plant, where)
-    data = load_measurement(data)
+    data = load_measurement(data, gaps)
+    if gaps is None:
+        check_grid(data.time_s, data.source)
     problems: list[str] = []
     Number("s", low=0.0, low_strict=False).check(window_s, "window_s", problems)
     Number("", high=1.0).check(rtol, "rtol", problems)
@@ -639,7 +650,7 @@ class Comparison:
                                                                  "residual_tests") and isinstance(v, plain)}
         tests = {k: v.to_json() for k, v in self.figures.get("residual_tests", {}).items()}
         return {"plant": self.plant.name, "data": self.data.source, "closed_loop": self.closed_loop,
-                "phases": {}, **extra, "residual_tests": tests}
+                "phases": {}, **extra, "residual_tests": tests, **gaps_entry(self.data)}
 
     def to_markdown(self, title: str, figures: Sequence[str] = ()) -> str:
         """``compare.md``: per signal the errors against the noise floor, where the primary
@@ -702,7 +713,8 @@ class Comparison:
 
 def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
             controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
-            noise_std: Mapping[str, float] | None = None, noise_from: Any = None) -> Comparison:
+            noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
+            gaps: str | None = None) -> Comparison:
     """Drive the model as the record was driven and measure where it fails.
 
     Parameters
@@ -733,6 +745,11 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
         A record of the machine at rest (as ``--noise-from``): each compared
         column's noise is its standard deviation there; ``noise_std`` wins
         where both give one.
+    gaps : {'interpolate', 'drop'}, optional
+        What to do with a few missing samples (as ``--gaps``; see
+        :func:`load_measurement` and :mod:`gearbench.measure.gaps`): interpolate up to
+        5 in a row, or drop rows at the record's ends.  Default: refuse the record,
+        naming the first missing sample.  The JSON's ``gaps`` says how many and where.
 
     Returns
     -------
@@ -758,7 +775,7 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     """
     from .identify.compare import comparison
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std, noise_from)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std, noise_from, gaps)
     return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
@@ -909,7 +926,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
              free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
              workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
              time_limit_s: float | None = None, progress=None,
-             noise_std: Mapping[str, float] | None = None, noise_from: Any = None) -> DiagnosisReport:
+             noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
+             gaps: str | None = None) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -928,6 +946,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         The measurement noise of some compared columns, as in :func:`compare`.
     noise_from : str, Path, pandas.DataFrame or Measurement, optional
         A record of the machine at rest, as in :func:`compare`.
+    gaps : {'interpolate', 'drop'}, optional
+        Missing samples, as in :func:`compare`.
     free : sequence of str
         Plant parameters refitted with every candidate, e.g. ``("leadscrew.mass",)``.
     only : sequence of str
@@ -981,7 +1001,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     """
     _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from, gaps)
     report = _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
                               progress)
     report.plant_label = label or plant.name
@@ -1106,6 +1126,7 @@ class FitReport:
     replay: Any = field(default=None, repr=False)
     base_plant: Plant | None = field(default=None, repr=False)
     plant_label: str = ""
+    gaps: dict | None = None
 
     def comparison(self) -> Comparison:
         """The fitted model against the record it was fitted on (needs ``replay``): a
@@ -1138,11 +1159,13 @@ class FitReport:
         return fit_card(self)
 
     def to_dict(self) -> dict:
-        """The fit as plain values (JSON-ready)."""
+        """The fit as plain values (JSON-ready); ``gaps`` when the record's missing samples were filled
+        or dropped (``measure.gaps.Gaps.to_dict()``)."""
         return {"effect": self.effect, "values": self.values, "stderr": self.stderr, "units": self.units,
                 "correlation": self.correlation,
                 "error_before": self.error_before, "error_after": self.error_after,
-                "error_unit": self.unit, "error_signal": self.signal, "message": self.message, "tried": self.tried}
+                "error_unit": self.unit, "error_signal": self.signal, "message": self.message, "tried": self.tried,
+                **({"gaps": self.gaps} if self.gaps else {})}
 
     def to_pandas(self) -> pd.DataFrame:
         """One row per fitted parameter: value and standard error."""
@@ -1160,7 +1183,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         options: Mapping | None = None, start: Mapping | None = None, free: Sequence[str] = (),
         refit: bool = False, controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
         max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None,
-        noise_std: Mapping[str, float] | None = None, noise_from: Any = None) -> FitReport:
+        noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
+        gaps: str | None = None) -> FitReport:
     """Add an effect to a plant and fit its parameters (and ``free`` plant parameters) to a record.
 
     Without a ``location`` in ``options`` every place the effect may act is
@@ -1192,6 +1216,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         The measurement noise of some compared columns, as in :func:`compare`.
     noise_from : str, Path, pandas.DataFrame or Measurement, optional
         A record of the machine at rest, as in :func:`compare`.
+    gaps : {'interpolate', 'drop'}, optional
+        Missing samples, as in :func:`compare`.
     max_evals : int, optional
         Most simulations the least-squares fit may spend (default 40 per parameter + 40).
     calibrate : bool
@@ -1245,7 +1271,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         problems += unknown_effects([effect], "effect")
     _raise(where, problems)
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from, gaps)
     try:
         report = fit_report(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate), scheduler)
         report.plant_label = label or plant.name
@@ -1273,7 +1299,8 @@ def fit_report(plant: Plant, replay, effect: str, options: Mapping | None = None
     res = best.result
     return FitReport(best.candidate.label(), res.plant, res.values, res.stderr,
                      scorer.error(replay.run(plant)), res.error, replay.unit(scorer.primary), scorer.primary,
-                     res.message, res.units, res.correlation, attempts(tried), replay, plant, plant.name)
+                     res.message, res.units, res.correlation, attempts(tried), replay, plant, plant.name,
+                     gaps_entry(replay.data).get("gaps"))
 
 
 def attempts(tried) -> list[dict]:

@@ -39,9 +39,23 @@ _common = [
 ]
 
 
+def _remember_gaps(ctx, param, value):
+    ctx.meta["gearbench.gaps"] = value
+    return value
+
+
+_gaps = click.option(
+    "--gaps", type=click.Choice(["interpolate", "drop"]), default=None, expose_value=False, callback=_remember_gaps,
+    help="A few missing samples (empty cells, rows missing from the time grid): 'interpolate' fills runs of up "
+         "to 5 (signals linearly, the input held), 'drop' drops them at the record's start or end only (the "
+         "replay needs a uniform time grid).  Says how many and where (the JSON's 'gaps').  Default: refuse "
+         "the record, naming the first missing sample.")
+
+
 def common(f):
     from .cli_import import column_options  # --columns/--units/--columns-file: read by _setup
     f = column_options(expose=False)(f)
+    f = _gaps(f)  # read by _setup from the context, like the column options
     for deco in reversed(_common):
         f = deco(f)
     return f
@@ -57,11 +71,15 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noi
     from .experiment.files import load_plant
     from .cli_import import context_column_map
     from .measure.data import read_measurement
+    gaps = click.get_current_context().meta.get("gearbench.gaps")
     plant = load_plant(plant_file)
-    data = read_measurement(data_file, context_column_map())
+    data = read_measurement(data_file, context_column_map(), gaps=gaps)
+    if data.gaps is not None:
+        console.print(data.gaps.sentence(), highlight=False)
     controller = load_controller(controller_file) if controller_file else None
     rest = None if noise_from is None else read_measurement(noise_from, context_column_map())
-    return _replay(plant, data, controller, window_s, rtol, str(data_file), parse_noise(noise, positive=True), rest)
+    return _replay(plant, data, controller, window_s, rtol, str(data_file), parse_noise(noise, positive=True), rest,
+                   gaps)
 
 
 def _errors():

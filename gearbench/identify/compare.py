@@ -10,8 +10,8 @@ from .residuals import DEFAULT_LAGS, check_lags, replay_residual_tests
 
 
 def comparison(replay: Replay, plant, sim: ReplayRun | None = None, lags: int | None = DEFAULT_LAGS) -> dict:
-    """Per compared column: RMS and maximum error (its unit), noise floor, their
-    ratio, relative error (%); the record cut into phases with each phase's
+    """Per compared column: RMS and maximum error (its unit), noise floor and the rule it was
+    read by (``Replay.noise_rule``), their ratio, relative error (%); the record cut into phases with each phase's
     share of the primary column's squared error; the residual tests of every
     column (:mod:`gearbench.identify.residuals`, ``lags`` samples; None: none);
     the times (s) at which the replay re-initialised the model's angles; the
@@ -27,7 +27,7 @@ def comparison(replay: Replay, plant, sim: ReplayRun | None = None, lags: int | 
         unit = replay.unit(name)
         rms = float(np.sqrt(np.mean(r ** 2)))
         rows.append({"signal": name, "unit": unit, "rms_error": rms, "max_error": float(np.max(np.abs(r))),
-                     "noise_floor": nf, "ratio_to_noise": rms / nf if nf > 0 else float("inf"),
+                     "noise_floor": nf, "noise_rule": replay.noise_rule(name), "ratio_to_noise": rms / nf if nf > 0 else float("inf"),
                      "relative_error_pct": float(100 * np.linalg.norm(r) / max(np.linalg.norm(y), 1e-300))})
     primary = primary_signal(replay)
     name, th = replay.motion(plant)

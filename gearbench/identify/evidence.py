@@ -54,6 +54,8 @@ SIGNATURES = {
     "a lag": ("signal", "the measured signal lagging the model (a delay): the residual follows the "
                         "signal's rate of change"),
     "steps of one count": ("signal", "steps of one encoder count: the residual is the rounding to the count grid"),
+    "a constant offset": ("signal", "a constant on the measured signal (a sensor's offset): the residual's "
+                                    "mean, |mean|/RMS"),
 }
 
 
@@ -188,6 +190,8 @@ class Evidence:
             return _corr(e, gap)
         if signature == "a lag":
             return _corr(e, np.gradient(y, self.t))
+        if signature == "a constant offset":
+            return _constant(e)
         counts = params.get("counts_per_rev")
         if signature == "steps of one count" and counts:
             q = 360.0 / counts if name.endswith("_deg") else None

@@ -34,7 +34,7 @@ import numpy as np
 from .. import layout as L
 from ..errors import ReplayError, ReplayRunError
 from ..measure.data import Measurement
-from ..measure.noise import noise_floor, rest_noise
+from ..measure.noise import noise_estimate, rest_noise
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
@@ -224,7 +224,16 @@ class Replay:
         (``noise_std``), else :func:`gearbench.measure.noise.noise_floor` of the record's column."""
         if name in self.noise_std:
             return self.noise_std[name]
-        return noise_floor(self.measured(name))
+        return noise_estimate(self.measured(name)).floor
+
+    def noise_rule(self, name: str) -> str:
+        """How :meth:`noise_floor` read compared column ``name``'s floor: ``"stated"`` (``noise_std``:
+        given, or from a record at rest), else the rule of
+        :func:`gearbench.measure.noise.noise_estimate` (a key of ``measure.noise.RULES``:
+        ``"differences"``, ``"quantum"``, ``"quantized differences"``)."""
+        if name in self.noise_std:
+            return "stated"
+        return noise_estimate(self.measured(name)).rule
 
     def compared(self) -> list[str]:
         """The columns a replay predicts: the measured signals, and the input in closed loop."""
@@ -294,12 +303,18 @@ class Replay:
         smooth where the model is right, whatever the motion: a polynomial fit of the
         measurement alone is biased where the motion is not polynomial (a motor crossing
         the clearance at 33 rad/s in practice case p03: it moved a right model 0.35 deg and
-        its motor-angle error went from 0.98x to 38x the noise).  True if it moved them."""
+        its motor-angle error went from 0.98x to 38x the noise).  The model's signal carries its
+        constant sensor effects (``Effect.shifts``: a ``sensor_offset`` on that angle), so a right
+        offset is no drift.  True if it moved them."""
         name, th = motion
         m = min(RESET_SAMPLES, len(out_prev))
         if th is None or m < 3:
             return False
-        sim = S.to_output_rad(name, S.from_outputs(name, out_prev[-m:], plant), plant)
+        y = S.from_outputs(name, out_prev[-m:], plant)
+        for e in plant.effects:  # a sensor's constant (``Effect.shifts``) is no drift of the model
+            if e.effect.shifts:
+                y = e.effect.measure(e.values, name, y, self.t[a - m:a], plant)
+        sim = S.to_output_rad(name, y, plant)
         d = th[a - m:a] - sim
         # the difference grows while the model drifts: its straight line, evaluated at sample a
         tt = self.t[a - m:a] - self.t[a]

@@ -60,6 +60,7 @@ class Diagnosis:
     residual_tests: dict = field(default_factory=dict)  # column -> residuals.ResidualTest of the final model
     not_tried: dict = field(default_factory=dict)  # effect -> why it cannot act on this plant and record
     timing: dict = field(default_factory=dict)  # timing.Timing.report(): where the time went
+    gaps: dict | None = None  # measure.gaps.Gaps.to_dict() of the record's missing samples, when asked to fill them
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -120,12 +121,15 @@ class Diagnosis:
         after it and its BIC change, else null.
         ``stopped``: why the ladder ended, one of :data:`STOPPED` (``reason`` says it in words).
         ``noise_floors``: per compared column its noise ``floor`` (the residuals' weight), ``unit``,
-        and whether it was ``stated`` (``Replay.noise_std``) or read from the record.
+        whether it was ``stated`` (``Replay.noise_std``) or read from the record, and its ``rule``
+        (``Replay.noise_rule``: ``stated``, or how ``measure.noise.noise_estimate`` read it).
         ``residual_tests``: per compared column, the final model's residual tests
         (``residuals.ResidualTest``: ``white``, ``input_independent``, ``lag1`` its lag-1
         autocorrelation, ``ljung_box_p``, ``sentence``).
         ``not_tried``: the effects of the library (of ``only``) that cannot act on this plant and
         record, each with why (:func:`not_tried`).
+        ``gaps`` (only when the record was read with ``gaps=``/``--gaps``): the missing samples filled
+        or dropped, ``measure.gaps.Gaps.to_dict()``.
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads.
@@ -159,6 +163,7 @@ class Diagnosis:
                                       "sentence": t.sentence()}
                                for name, t in self.residual_tests.items()},
             "not_tried": self.not_tried,
+            **({"gaps": self.gaps} if self.gaps else {}),
             "calibration": self.calibration,
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
@@ -180,8 +185,9 @@ def candidate_json(t: Tried) -> dict:
 
 
 def noise(replay: Replay, scorer: Scorer) -> dict:
-    """Per weighed column: its noise floor, unit and whether it was stated."""
-    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std} for n, f in scorer.floors.items()}
+    """Per weighed column: its noise floor, unit, whether it was stated, and the rule it was read by."""
+    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": replay.noise_rule(n)}
+            for n, f in scorer.floors.items()}
 
 
 def residual_tests(replay: Replay, plant: Plant, res: FitResult) -> dict:
@@ -227,4 +233,5 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
                      list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
                      scorer.relative_pct(base.sim),
                      ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
-                     why, noise(replay, scorer), tests, not_tried, ctx.tracker.timing.report())
+                     why, noise(replay, scorer), tests, not_tried, ctx.tracker.timing.report(),
+                     replay.data.gaps.to_dict() if replay.data.gaps else None)

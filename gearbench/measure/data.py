@@ -36,6 +36,7 @@ from ..errors import CsvFormatError, MeasurementError
 from ..report.io import write_csv_atomic
 from .columns import as_column_map, map_columns, needed
 from .csvformat import CsvFormat, sniff
+from . import gaps as gaps_mod
 from .names import COLUMN_UNITS, DISTURBANCE_COLUMN, INPUT_COLUMNS, SETPOINT_COLUMNS, SIGNAL_COLUMNS, TIME_COLUMN
 
 # Suffixes an engineer uses for units; a column ending in one of these that is not ours
@@ -70,6 +71,7 @@ class Measurement:
     setpoint: np.ndarray | None = None
     disturbance_V: np.ndarray | None = None
     source: str = ""
+    gaps: "gaps_mod.Gaps | None" = None  # what ``gaps=`` filled or dropped when it was read, if it was asked to
 
     @property
     def duration_s(self) -> float:
@@ -170,24 +172,32 @@ def _file_rows(lines: np.ndarray) -> Callable[[int], str]:
 
 
 def _value_problems(name: str, values: np.ndarray, where: Callable[[int], str],
-                    raw: np.ndarray | None = None, label: str | None = None) -> list[str]:
+                    raw: np.ndarray | None = None, label: str | None = None, missing_ok: bool = False) -> list[str]:
     """Non-numeric, missing, NaN or infinite entries: the first one and how many.
 
     ``label`` names the column in the message (default ``'name'``; a mapped column
-    adds the file's name for it)."""
-    bad = np.flatnonzero(~np.isfinite(values))
+    adds the file's name for it); ``missing_ok``: empty cells and NaN are no problem (``gaps``
+    fills or drops them), text and infinities still are."""
+    bad = ~np.isfinite(values)
+    if missing_ok:
+        texts = np.array([isinstance(x, str) and bool(x.strip()) and x.strip().lower() != "nan"
+                          for x in raw]) if raw is not None else np.zeros(values.size, dtype=bool)
+        bad &= ~np.isnan(values) | texts
+    bad = np.flatnonzero(bad)
     if bad.size == 0:
         return []
     i = int(bad[0])
     text = raw[i] if raw is not None else None
+    hint = ""
     if isinstance(text, str) and text.strip() and not _is_number(text):
         what = f"non-numeric value {text.strip()!r}"
     elif np.isnan(values[i]):
         what = "missing or NaN value"
+        hint = f"; {gaps_mod.OPTION} fills or drops up to {gaps_mod.MAX_RUN} missing samples in a row"
     else:
         what = f"infinite value {values[i]}"
     more = f" ({bad.size} bad rows in all)" if bad.size > 1 else ""
-    return [f"column {label or repr(name)}: {what} at {where(i)}{more}"]
+    return [f"column {label or repr(name)}: {what} at {where(i)}{more}{hint}"]
 
 
 def _is_number(text: str) -> bool:
@@ -238,18 +248,31 @@ def _assemble(columns: Mapping[str, np.ndarray], source: str) -> Measurement:
 
 def _check_and_assemble(names: Sequence[str], values: Mapping[str, np.ndarray], source: str,
                         where: Callable[[int], str], raw: Mapping[str, np.ndarray] | None = None,
-                        extra: Sequence[str] = (), labels: Mapping[str, str] | None = None) -> Measurement:
+                        extra: Sequence[str] = (), labels: Mapping[str, str] | None = None,
+                        gaps: str | None = None) -> Measurement:
+    """The checked record; ``gaps`` (``measure.gaps.MODES``) fills or drops its missing samples
+    (``Measurement.gaps`` says what it did), None refuses them."""
     problems = _column_problems(names) + list(extra)
     labels = labels or {}
     n_rows = len(next(iter(values.values()))) if values else 0
     if values and n_rows < _MIN_ROWS:
         problems.append(f"{n_rows} sample(s): a measurement needs at least {_MIN_ROWS}")
     for name, v in values.items():
-        problems += _value_problems(name, v, where, raw.get(name) if raw else None, labels.get(name))
-    if TIME_COLUMN in values:
+        problems += _value_problems(name, v, where, raw.get(name) if raw else None, labels.get(name),
+                                    missing_ok=gaps is not None)
+    if TIME_COLUMN in values and gaps is None:
         problems += _time_problems(values[TIME_COLUMN], where)
     _raise(problems, source)
-    return _assemble(values, source)
+    if gaps is None:
+        return _assemble(values, source)
+    values, report = gaps_mod.repair(values, gaps, source)
+    problems = _time_problems(values[TIME_COLUMN], _sample_name)
+    if len(values[TIME_COLUMN]) < _MIN_ROWS:
+        problems.append(f"{len(values[TIME_COLUMN])} sample(s) left: a measurement needs at least {_MIN_ROWS}")
+    _raise(problems, source)
+    m = _assemble(values, source)
+    m.gaps = report
+    return m
 
 
 # ---------------------------------------------------------------------------
@@ -320,7 +343,7 @@ def _float_or_nan(v) -> float:
         return math.nan
 
 
-def read_measurement(path: str | Path, columns=None, units=None) -> Measurement:
+def read_measurement(path: str | Path, columns=None, units=None, gaps: str | None = None) -> Measurement:
     """Read and check a measurement CSV (docs/measurements.md); raise :class:`MeasurementError`
     naming every bad column and the first bad row of each.
 
@@ -337,16 +360,21 @@ def read_measurement(path: str | Path, columns=None, units=None) -> Measurement:
     units : mapping or str, optional
         The unit of each mapped column (``{'time': 'ms', 'load_angle': 'rad'}``); its
         values are converted to gearbench's units.
+    gaps : {'interpolate', 'drop'}, optional
+        What to do with missing samples (empty cells, rows missing from the time grid):
+        :mod:`gearbench.measure.gaps`; the record's ``gaps`` says what was done.  Default:
+        refuse them.
     """
-    return read_mapped(path, columns, units)[0]
+    return read_mapped(path, columns, units, gaps)[0]
 
 
-def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement, list[str], list[str]]:
+def read_mapped(path: str | Path, columns=None, units=None,
+                gaps: str | None = None) -> tuple[Measurement, list[str], list[str]]:
     """:func:`read_measurement`, and what it did.
 
     Parameters
     ----------
-    path, columns, units
+    path, columns, units, gaps
         As for :func:`read_measurement`.
 
     Returns
@@ -388,7 +416,7 @@ def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement
         used, ignored = mapped.used, mapped.ignored
         try:
             m = _check_and_assemble(mapped.names, mapped.values, str(path), where, raw=mapped.raw,
-                                    labels=mapped.labels)
+                                    labels=mapped.labels, gaps=gaps)
         except MeasurementError as exc:
             found = ", ".join(repr(n) for n in names)
             context = [f"the file's columns are {found}; mapped: {'; '.join(used) or 'none'}", needed()]
@@ -399,7 +427,7 @@ def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement
         if name in COLUMN_UNITS and names.count(name) == 1:
             values[name], raw[name] = _to_float(body[j], fmt.decimal)
     try:
-        return _check_and_assemble(names, values, str(path), where, raw=raw), used, ignored
+        return _check_and_assemble(names, values, str(path), where, raw=raw, gaps=gaps), used, ignored
     except MeasurementError as exc:
         if not any(p.startswith("unknown") for p in exc.problems):
             raise
@@ -408,14 +436,15 @@ def read_mapped(path: str | Path, columns=None, units=None) -> tuple[Measurement
         raise MeasurementError(f"{exc}\n  ({hint})", exc.problems) from None
 
 
-def from_frame(frame: pd.DataFrame, source: str = "") -> Measurement:
-    """Check a DataFrame in the file's column format and make it a Measurement."""
+def from_frame(frame: pd.DataFrame, source: str = "", gaps: str | None = None) -> Measurement:
+    """Check a DataFrame in the file's column format and make it a Measurement (``gaps``: as for
+    :func:`read_measurement`)."""
     names = [str(c) for c in frame.columns]
     values, raw = {}, {}
     for j, name in enumerate(names):
         if name in COLUMN_UNITS and names.count(name) == 1:
             values[name], raw[name] = _to_float(frame.iloc[:, j])
-    return _check_and_assemble(names, values, source, _sample_name, raw=raw)
+    return _check_and_assemble(names, values, source, _sample_name, raw=raw, gaps=gaps)
 
 
 def from_arrays(time_s, input_name: str, input, signals: Mapping[str, np.ndarray], setpoint=None,
@@ -461,6 +490,13 @@ def from_arrays(time_s, input_name: str, input, signals: Mapping[str, np.ndarray
     return _check_and_assemble(list(columns), values, source, _sample_name)
 
 
+def with_gaps(m: Measurement, gaps: str) -> Measurement:
+    """Record ``m`` (built directly, perhaps with NaN) with its missing samples filled or dropped by
+    ``gaps`` (:mod:`gearbench.measure.gaps`)."""
+    cols = {k: np.asarray(v, dtype=float) for k, v in m.columns().items()}
+    return _check_and_assemble(list(cols), cols, m.source, _sample_name, gaps=gaps)
+
+
 def _time_format(t: np.ndarray, float_format: str) -> str:
     """``float_format`` unless it would make two times equal; then full precision."""
     written = np.array([float(float_format % v) for v in t])
@@ -482,4 +518,4 @@ def write_measurement(frame_or_measurement, path: str | Path, float_format: str 
 
 __all__ = ["MeasurementError", "Measurement", "INPUT_COLUMNS", "SIGNAL_COLUMNS", "SETPOINT_COLUMNS",
            "TIME_COLUMN", "DISTURBANCE_COLUMN", "COLUMN_UNITS", "read_measurement", "read_mapped", "from_arrays",
-           "from_frame", "write_measurement"]
+           "from_frame", "with_gaps", "write_measurement"]

@@ -53,7 +53,9 @@ and acts in one of three ways:
   linearisation and the steady drag are derived from these declarations
   (``codegen.py``, ``pack.py``, ``linear.py``).
 * **structural**: ``apply(values, plant)`` returns a changed plant;
-* **sensor**: ``measure(values, name, y, time_s, plant)`` distorts a measured signal.
+* **sensor**: ``measure(values, name, y, time_s, plant)`` distorts a measured signal;
+  ``shifts`` says it only adds a constant, which a replay's window reset takes into the
+  model's signal before measuring its drift (``identify.replay.Replay._reset_angles``).
 
 To add an effect: write a module with a subclass decorated with
 :func:`register`; a built-in one is imported in ``effects/__init__.py`` (its
@@ -128,6 +130,7 @@ class Effect:
     slots: ClassVar[tuple[str, ...]] = ()  # what the term reads at p[o], p[o + 1], ... (SI)
     source: ClassVar[str | None] = None  # the file of an effect from outside the package
     rounds: ClassVar[bool] = False  # a sensor effect that rounds its signal to a grid (no noise below it)
+    shifts: ClassVar[bool] = False  # a sensor effect that adds a constant: a window's reset sees through it
 
     def fit_params(self, values: dict) -> tuple[Param, ...]:
         """The parameters a fit adjusts (the given optional ones too)."""
