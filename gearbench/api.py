@@ -1100,6 +1100,8 @@ class FitReport:
         The plant before the effect was added (the page's "before").
     plant_label : str
         What the page calls the model: its file's name when it came from a file.
+    gaps : dict, optional
+        What was done to the record's missing samples (``gaps=``): ``measure.gaps.Gaps.to_dict()``.
 
     Examples
     --------
