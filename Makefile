@@ -1,6 +1,6 @@
 # gearbench: two commands set everything up on a fresh machine.
 #   make run   - create .venv, install, reproduce Table I, the gain scans, the tutorial's
-#                diagnosis, the EMPS study and the standard errors' coverage into results/
+#                diagnosis, the EMPS study, the standard errors' coverage and the tuning study into results/
 #   make test  - create .venv, install with test extras, run the test suite
 #   make test-all - the same with the slow tests too (the 10,000-input fuzz, every hidden-effect
 #                case on its 16 s record)
@@ -42,6 +42,7 @@ run: install
 	$(BIN)/python -m studies.hidden_effects --results results
 	$(BIN)/python -m studies.emps --results results
 	$(BIN)/python -m studies.coverage --results results
+	$(BIN)/python -m studies.tuning --results results
 
 test: install-test
 	$(BIN)/python -m pytest -q
@@ -63,6 +64,7 @@ bench: install
 	$(BIN)/python benchmarks/bench_diagnose.py
 	$(BIN)/python benchmarks/bench_dask_diagnose.py
 	$(BIN)/python benchmarks/bench_ladder.py
+	$(BIN)/python benchmarks/bench_tune.py
 
 clean-cache:
 	rm -rf $$HOME/.cache/gearbench

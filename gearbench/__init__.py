@@ -41,8 +41,10 @@ _EXPORTS = {
     "load_measurement": ".api",
     # run and judge
     "simulate": ".api", "run_experiment": ".api", "compare": ".api", "diagnose": ".api", "fit": ".api",
+    "tune": ".tuning.tune",
     # results
     "Simulation": ".api", "Comparison": ".api", "DiagnosisReport": ".api", "FitReport": ".api",
+    "TuneResult": ".tuning.result",
     # errors (gearbench.errors: GearbenchError is the base of every one)
     "GearbenchError": ".errors", "ConfigError": ".errors", "MeasurementError": ".errors", "SolverError": ".errors",
     "ReplayError": ".errors", "FitError": ".errors", "ProfileError": ".errors",

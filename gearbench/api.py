@@ -392,6 +392,11 @@ class Simulation:
             ax.grid(alpha=0.3)
         return fig
 
+    def _repr_html_(self) -> str:
+        """A notebook's view: the run's identity and scores as a table, and a small plot."""
+        from .report.html import simulation_card
+        return simulation_card(self)
+
     def __repr__(self) -> str:
         return (f"Simulation({self.plant.name!r}, {self.profile!r}, {self.controller.kind}, "
                 f"status={self.status!r}, iae_deg_s={self.iae_deg_s:.6g}, samples={self.time_s.size})")
@@ -659,6 +664,29 @@ class Comparison:
         error, noise floor, their ratio, relative error (%)."""
         return pd.DataFrame(self.signals).set_index("signal")
 
+    def to_html(self, path: str | Path | None = None) -> str:
+        """The comparison as one self-contained HTML page, as ``gearbench compare`` writes it
+        (``report.html``): the files, the noise floors, per signal the errors, the figures
+        (embedded PNGs), the phases and the residual tests.
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            Also write the page there (atomically).
+
+        Returns
+        -------
+        str
+            The HTML document.
+        """
+        from .report.html import comparison_page, write
+        return write(path, comparison_page(self))
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the signals table and the primary signal measured against simulated."""
+        from .report.html import comparison_card
+        return comparison_card(self)
+
     def plot(self, signal: str | None = None):
         """Measured against simulated ``signal`` (default the primary) with the
         residual under it and the motion's phases shaded; returns the Figure."""
@@ -734,6 +762,14 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
+def _comparison(plant: Plant, replay, label: str) -> Comparison:
+    """``plant`` against the record of ``replay``, as :func:`compare` gives it."""
+    from .identify.compare import comparison
+    if replay is None:
+        raise ConfigError("comparison", "this result keeps no replay of its record (made before reports kept one)")
+    return Comparison(plant, replay.data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
+
+
 @dataclass
 class DiagnosisReport:
     """Which effect a model is missing: the candidates ranked, the verdict, the ladder.
@@ -742,6 +778,11 @@ class DiagnosisReport:
     ----------
     diagnosis : gearbench.identify.results.Diagnosis
         The full result (fits, plants), kept as ``diagnosis``.
+    replay : gearbench.identify.replay.Replay, optional
+        The record and how the model was driven by it; with it :meth:`to_html` shows the
+        signals and residuals of each rung's model too.
+    plant_label : str
+        What the page calls the model: its file's name when it came from a file.
 
     Examples
     --------
@@ -755,6 +796,13 @@ class DiagnosisReport:
     1  coulomb_friction  {'location': 'motor'}    ...
     """
     diagnosis: Any = field(repr=False)
+    replay: Any = field(default=None, repr=False)
+    plant_label: str = ""
+
+    def comparison(self) -> Comparison:
+        """The fitted model against the record it was fitted on (needs ``replay``): a
+        :class:`Comparison`, as :func:`compare` gives it."""
+        return _comparison(self.plant, self.replay, self.plant_label)
 
     @property
     def verdict(self) -> str | None:
@@ -796,6 +844,13 @@ class DiagnosisReport:
         return self.diagnosis.noise_floor
 
     @property
+    def timing(self) -> dict:
+        """Where the diagnosis spent its time (``to_dict()["timing"]``): ``wall_s``, and per stage and
+        per candidate effect the wall time, replays, solver steps (stages) and fits
+        (``docs/diagnose-json.md``)."""
+        return self.diagnosis.timing
+
+    @property
     def unit(self) -> str:
         return self.diagnosis.unit
 
@@ -817,6 +872,32 @@ class DiagnosisReport:
         d = self.diagnosis
         return ladder_figure(d.ladder_steps(), noise_floor=d.noise_floor, unit=d.unit,
                              title=f"{d.plant.name}: diagnosis", calibration=d.calibration)
+
+    def to_html(self, path: str | Path | None = None) -> str:
+        """The diagnosis as one self-contained HTML page, as ``gearbench diagnose`` writes it
+        (``report.html``): the files, the noise floors, the ladder with each rung's error before
+        and after, the explanations, the fitted values with their standard errors and
+        correlations, the final model's signals and residual tests, the calibration, the
+        candidates, what was not tried and the timing (when the diagnosis has it).  Figures are
+        embedded PNGs; with ``replay`` each rung's model is replayed once for them.
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            Also write the page there (atomically).
+
+        Returns
+        -------
+        str
+            The HTML document.
+        """
+        from .report.html import diagnosis_page, write
+        return write(path, diagnosis_page(self))
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the verdict, the ladder table and the ladder figure."""
+        from .report.html import diagnosis_card
+        return diagnosis_card(self)
 
     def __repr__(self) -> str:
         return (f"DiagnosisReport(verdict={self.verdict!r}, baseline_error={self.baseline_error:.4g} {self.unit}, "
@@ -899,9 +980,12 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     ('coulomb_friction', 'deg')
     """
     _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
+    label = Path(plant).name if isinstance(plant, (str, Path)) else ""
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from)
-    return _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
-                            progress)
+    report = _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
+                              progress)
+    report.plant_label = label or plant.name
+    return report
 
 
 def diagnose_replay(plant: Plant, replay, *, free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
@@ -956,7 +1040,7 @@ def _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, s
         Free.plant(plant, p)  # a bad key is named before any solving
     return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only),
                                      calibrate=bool(calibrate), scheduler=scheduler, time_limit_s=time_limit_s,
-                                     progress=progress))
+                                     progress=progress), replay, plant.name)
 
 
 @dataclass
@@ -989,6 +1073,13 @@ class FitReport:
         Parameter -> parameter -> correlation of the two estimates.
     tried : list of dict
         Every place tried: ``effect`` (its label), ``converged``, ``note``.
+    replay : gearbench.identify.replay.Replay, optional
+        The record and how the model was driven by it; with it :meth:`to_html` shows the
+        fitted model's signals and residual tests.
+    base_plant : Plant, optional
+        The plant before the effect was added (the page's "before").
+    plant_label : str
+        What the page calls the model: its file's name when it came from a file.
 
     Examples
     --------
@@ -1012,6 +1103,39 @@ class FitReport:
     units: dict = field(default_factory=dict)
     correlation: dict = field(default_factory=dict)
     tried: list = field(default_factory=list)
+    replay: Any = field(default=None, repr=False)
+    base_plant: Plant | None = field(default=None, repr=False)
+    plant_label: str = ""
+
+    def comparison(self) -> Comparison:
+        """The fitted model against the record it was fitted on (needs ``replay``): a
+        :class:`Comparison`, as :func:`compare` gives it."""
+        return _comparison(self.plant, self.replay, self.plant_label)
+
+    def to_html(self, path: str | Path | None = None, output: str | Path | None = None) -> str:
+        """The fit as one self-contained HTML page, as ``gearbench fit`` writes it: the files,
+        the values with their standard errors and correlations, the places tried, and (with
+        ``replay``) the noise floors, the signals before and after and the residual tests.
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            Also write the page there (atomically).
+        output : str or Path, optional
+            The plant file the fitted plant was written to, named on the page.
+
+        Returns
+        -------
+        str
+            The HTML document.
+        """
+        from .report.html import fit_page, write
+        return write(path, fit_page(self, output=output))
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the values table and the error before and after."""
+        from .report.html import fit_card
+        return fit_card(self)
 
     def to_dict(self) -> dict:
         """The fit as plain values (JSON-ready)."""
@@ -1120,9 +1244,12 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
     if isinstance(effect, str):
         problems += unknown_effects([effect], "effect")
     _raise(where, problems)
+    label = Path(plant).name if isinstance(plant, (str, Path)) else ""
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from)
     try:
-        return fit_report(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate), scheduler)
+        report = fit_report(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate), scheduler)
+        report.plant_label = label or plant.name
+        return report
     except FitError as exc:
         if isinstance(exc, NotConverged):
             raise
@@ -1146,7 +1273,7 @@ def fit_report(plant: Plant, replay, effect: str, options: Mapping | None = None
     res = best.result
     return FitReport(best.candidate.label(), res.plant, res.values, res.stderr,
                      scorer.error(replay.run(plant)), res.error, replay.unit(scorer.primary), scorer.primary,
-                     res.message, res.units, res.correlation, attempts(tried))
+                     res.message, res.units, res.correlation, attempts(tried), replay, plant, plant.name)
 
 
 def attempts(tried) -> list[dict]:

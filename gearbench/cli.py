@@ -186,5 +186,9 @@ main.add_command(compare)
 main.add_command(diagnose)
 main.add_command(fit)
 
+from .cli_tune import tune  # noqa: E402
+
+main.add_command(tune)
+
 if __name__ == "__main__":
     main()

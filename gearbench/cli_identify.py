@@ -80,6 +80,13 @@ _scheduler = click.option(
          "(one task per fit; the same answer).")
 
 
+def _html_option(default: str):
+    return click.option("--html", "html_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                        metavar="FILE",
+                        help="Write the self-contained HTML report (every figure embedded; it opens with no "
+                             f"network, from an e-mail attachment) to FILE.  Default: {default}.")
+
+
 def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Path:
     """RESULTS/<kind>_<plant>_<data>: one folder per pair, so comparing two plants keeps both."""
     return results / f"{kind}_{plant_file.stem}_{data_file.stem}"
@@ -93,7 +100,9 @@ def _out_dir(results: Path, kind: str, plant_file: Path, data_file: Path) -> Pat
 @click.option("--lags", type=click.IntRange(min=1), default=25, show_default=True,
               help="Residual tests: the largest lag, in samples, of the residual's autocorrelation (0..LAGS) "
                    "and of its cross-correlation with the input (-LAGS..LAGS).")
-def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, results, as_json, lags):
+@_html_option("report.html beside the figures")
+def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, results, as_json, lags,
+            html_file):
     """Drive the model as the record was driven and show where it fails.
 
     For each measured signal: RMS and maximum error in its unit, the noise
@@ -105,11 +114,13 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
     and a sentence naming the lags that leave them.  Figures: measured vs
     simulated with the residual and the input under it, the phases shaded and
     the re-initialisations marked, one per signal; the residual against speed,
-    position and direction; the residual tests.
+    position and direction; the residual tests.  All of it, with the noise floors, in one
+    self-contained HTML page (report.html, or --html FILE).
     """
     from .api import Comparison
     from .identify.compare import comparison
-    from .report.compare import comparison_figure, residual_figure, residual_tests_figure
+    from .report.compare import comparison_figures
+    from .report.html import comparison_page
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
@@ -119,35 +130,16 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
         _fail(exc)
     c = cmp.figures
     out = _out_dir(results, "compare", plant_file, data_file)
-    t = replay.t
     # Files, not the plant's name: a plant before and after a fit has one name.
     what = f"{plant_file.name} against {data_file.name}"
-    inputs = [] if replay.closed_loop else [(data.input_name, data.input, data.input_unit)]
-    if data.setpoint is not None:
-        inputs.append((data.setpoint_name, data.setpoint, data.setpoint_name.rsplit("_", 1)[1]))
-    figures = []
-    for row in c["signals"]:
-        name = row["signal"]
-        fig = comparison_figure(t, replay.measured(name), c["sim"][name], c.get("labels"), name, row["unit"],
-                                title=f"{name}: {what}", inputs=inputs, reinit_s=c["reinitialised_s"])
-        figures.append(save_figure_atomic(fig, out / f"{name}.png"))
-    if "labels" in c:
-        p = c["primary"]
-        unit = next(r["unit"] for r in c["signals"] if r["signal"] == p)
-        from .measure.signals import per_rad
-        out_name, pos_unit = ("load_position_mm", "mm") if plant.leadscrew else ("load_angle_deg", "deg")
-        k = per_rad(out_name, plant)
-        fig = residual_figure(c["residuals"][p], k * c["speed"], k * c["position"], p, unit,
-                              f"{pos_unit}/s at the output", f"{pos_unit} at the output")
-        fig.suptitle(what)
-        figures.append(save_figure_atomic(fig, out / f"{p}_residual_vs_motion.png"))
+    figures = [save_figure_atomic(fig, out / name) for name, fig in comparison_figures(cmp, what)]
     tests = c["residual_tests"]
-    figures.append(save_figure_atomic(residual_tests_figure(tests, f"residual tests: {what}"),
-                                      out / "residual_tests.png"))
     summary = {**cmp.to_dict(), "plant_file": str(plant_file), "data": str(data_file),
                "figures": [str(f) for f in figures]}
     write_text_atomic(out / "compare.md", cmp.to_markdown(what, [f.name for f in figures]))
     write_text_atomic(out / "compare.json", json.dumps(summary, indent=1) + "\n")
+    page = comparison_page(cmp, plant_file, data_file, {f.name: f.read_bytes() for f in figures})
+    report = write_text_atomic(html_file or out / "report.html", page)
     if as_json:
         echo_json(summary)
         return
@@ -168,7 +160,7 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
     stdout().print("[bold]residual tests[/]")
     for v in tests.values():
         stdout().print(v.sentence(), highlight=False, soft_wrap=True)
-    console.print(f"figures and tables in {out}/")
+    console.print(f"figures and tables in {out}/; the report: {report}")
 
 
 @click.command()
@@ -205,9 +197,14 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
                    "\"nothing pays\", \"max steps\" or \"time limit\".  'noise_floors': each signal's floor, "
                    "unit and whether it was stated (--noise); 'residual_tests': the final model's, per signal "
                    "(white, input_independent, lag1, ljung_box_p, sentence); 'not_tried': the effects that "
-                   "cannot act on this plant and record, each with why.")
+                   "cannot act on this plant and record, each with why; 'timing': where the time went, "
+                   "{wall_s, stages: [{stage, wall_s, replays, solver_steps, fits}], candidates: [{effect, "
+                   "wall_s, replays, fits}]} (a replay: one simulation of the record, all its windows; "
+                   "solver_steps: the integrator's accepted steps; fits: least-squares fits; a candidate's "
+                   "wall_s is its own fits' time wherever they ran, pairs as \"a+b\"; docs/diagnose-json.md).")
+@_html_option("report.html beside the ladder figure")
 def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, calibrate,
-             max_steps, time_limit_s, workers, scheduler, quiet, results, as_json):
+             max_steps, time_limit_s, workers, scheduler, quiet, results, as_json, html_file):
     """Which physical effect is the model missing?
 
     Fits every effect of the library that the plant lacks, in every place it
@@ -223,19 +220,27 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     candidate explains the residual.
 
     A progress display on stderr follows the whole ladder: the step, the stage (candidates, joint
-    refit, calibration, pairs, ...), the fit just finished and the best so far.  Ctrl-C stops
+    refit, calibration, pairs, ...), the fit just finished and the best so far; when stderr is not a
+    terminal, plain lines (one per stage, at most one every 5 s otherwise; none with --quiet or
+    --json).  Ctrl-C stops
     cleanly: the ladder so far is printed and the exit status is 130.
+
+    Beside the ladder figure and the tables, one self-contained HTML page (report.html, or
+    --html FILE) holds it all: the ladder with each rung's before and after, the explanations,
+    the fitted values, the final model's signals and residual tests, the calibration.
     """
     from .api import diagnose_replay
     from .report.compare import ladder_figure
+    from .report.html import diagnosis_page
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
         names = tuple(n.strip() for n in only.split(",") if n.strip())
         with _ladder_progress(disable=quiet or as_json) as show:
-            d = diagnose_replay(plant, replay, free=free, only=names, max_steps=max_steps, workers=workers,
-                                calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler,
-                                progress=show).diagnosis
+            rep = diagnose_replay(plant, replay, free=free, only=names, max_steps=max_steps, workers=workers,
+                                  calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler,
+                                  progress=show)
+        d = rep.diagnosis
     except _errors() as exc:
         _fail(exc)
     except DiagnosisInterrupted as stop:
@@ -247,9 +252,14 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     cal = j["calibration"]
     fig = ladder_figure(d.ladder_steps(), noise_floor=d.noise_floor, unit=d.unit,
                         title=f"{plant.name}: {data_file.name}", calibration=cal)
-    save_figure_atomic(fig, out / "ladder.png")
+    ladder_png = save_figure_atomic(fig, out / "ladder.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
     write_text_atomic(out / "diagnose.md", d.to_markdown(f"diagnose {plant.name} against {data_file.name}"))
+    try:
+        report = write_text_atomic(html_file or out / "report.html",
+                                   diagnosis_page(rep, plant_file, data_file, ladder_png.read_bytes()))
+    except _errors() as exc:  # a replay of a rung's model the solver could not finish: the rest stands
+        _fail(exc)
     if as_json:
         echo_json(j)
         return
@@ -276,7 +286,7 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
         stdout().print(f"[bold]verdict: none[/] — {d.reason}")
     if d.ladder:
         stdout().print(f"stopped: {d.reason}")
-    console.print(f"figures and tables in {out}/")
+    console.print(f"figures and tables in {out}/; the report: {report}")
 
 
 def _print_ladder(d, where) -> None:
@@ -300,9 +310,15 @@ def _print_ladder(d, where) -> None:
 @contextmanager
 def _ladder_progress(disable: bool):
     """A rich progress display of the whole ladder on stderr; yields the callback ``diagnose`` takes
-    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``."""
+    (:class:`gearbench.identify.progress.ProgressEvent`), None when ``disable``.  When stderr is not a
+    terminal (a CI log, ``| tee``), plain lines instead (:class:`~gearbench.identify.progress.PlainLines`:
+    one per stage, at most one every 5 s otherwise)."""
     if disable:
         yield None
+        return
+    if not console.is_terminal:
+        from .identify.progress import PlainLines
+        yield PlainLines(lambda text: click.echo(text, err=True))
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
@@ -336,15 +352,18 @@ def _ladder_progress(disable: bool):
               help="Print {converged, effect, values, stderr, units, correlation (parameter -> parameter -> "
                    "correlation of the two estimates), error_before, error_after, error_unit, error_signal, "
                    "message (the optimiser's), output, tried} as one JSON object on stdout instead of the table.")
+@_html_option("the new plant file's name with .html (NEW.html beside NEW.yaml)")
 def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, effect_spec, free, refit,
-        calibrate, max_evals, scheduler, output, as_json):
+        calibrate, max_evals, scheduler, output, as_json, html_file):
     """Add an effect to PLANT, fit its parameters to DATA, write NEW.yaml.
 
     The new plant file holds the fitted values with their standard errors (and
     units) as comments; the table lists them, then the pairs of estimates
     correlated beyond +-0.9.  The standard errors hold for residuals correlated
     in time (a prewhitened Newey-West sandwich, gearbench.identify.uncertainty).
-    A fit that does not converge says so, writes nothing and exits 1.
+    A fit that does not converge says so, writes nothing and exits 1.  A converged fit also
+    writes a self-contained HTML report (NEW.html, or --html FILE): the values, standard errors
+    and correlations, the signals before and after, the residual tests.
     """
     from .api import attempts, fit_report
     from .cli_synth import parse_effect
@@ -353,6 +372,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     from .identify.candidates import check_names
     from .identify.uncertainty import strong_correlations
     from .plant.effects import REGISTRY
+    from .report.html import fit_page
     from .report.io import write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
@@ -375,10 +395,15 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     # the user's file edited in place of a fresh dump: comments, key order and description stay
     write_text_atomic(output, update_plant_yaml(plant_file.read_text(encoding="utf-8"), plant, f.plant,
                                                 f.stderr, header, f.units))
+    try:
+        beside = output.with_suffix(".html" if output.suffix != ".html" else ".report.html")
+        report = write_text_atomic(html_file or beside, fit_page(f, plant_file, data_file, output))
+    except _errors() as exc:
+        _fail(exc)
     if as_json:
         echo_json({"converged": True, **f.to_dict(), "output": str(output)})
-        console.print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output}",
-                      highlight=False)
+        console.print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output} "
+                      f"and {report}", highlight=False)
         return
     tab = Table(title=f"{f.effect} fitted to {data_file.name}")
     for col in ("parameter", "value", "standard error", "unit"):
@@ -389,4 +414,5 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     stdout().print(tab)
     for a, b, rho in strong_correlations(f.correlation):
         stdout().print(f"correlated estimates: {a} and {b}, {rho:+.3f}", highlight=False)
-    stdout().print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output}")
+    stdout().print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output} and {report}",
+                   highlight=False)

@@ -78,8 +78,13 @@ def test_dask_diagnosis_is_the_local_one_exactly(cluster, record):
         remote = diagnose(plant, Replay(record), max_steps=2, only=ONLY, workers=2, progress=seen.append,
                           scheduler=cluster.scheduler_address)
     assert local.verdict == "coulomb_friction"  # a diagnosis that found something, not an empty one
-    # exact: the same floats, text and order (JSON text, so a NaN compares too); to_json holds no wall times
-    assert json.dumps(remote.to_json()) == json.dumps(local.to_json())
+    # exact: the same floats, text and order (JSON text, so a NaN compares too), but for the wall times
+    mine, theirs = remote.to_json(), local.to_json()
+    timed = mine.pop("timing"), theirs.pop("timing")
+    assert json.dumps(mine) == json.dumps(theirs)
+    # the counts made in the cluster's tasks came back: the same as on local processes
+    counts = [[{k: s[k] for k in ("stage", "replays", "solver_steps", "fits")} for s in t["stages"]] for t in timed]
+    assert counts[0] == counts[1] and any(s["fits"] for s in counts[0])
     first = [c.label() for c in candidates(plant, Replay(record), ONLY)]
     assert ran["run_candidate"] >= len(first)  # the fits ran on the cluster
     # progress of the first screen in the order of the jobs

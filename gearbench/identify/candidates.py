@@ -23,6 +23,7 @@ from .scoring import Scorer, signal_evidence
 from .refit import best_fit, frees_of
 from .replay import Replay
 from . import search
+from .timing import Cost, timed
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
            "lowest first; the places of one effect (location, signal) share the slots their BICs earn, in the "
@@ -58,12 +59,14 @@ class Candidate:
 @dataclass
 class Tried:
     """A candidate after fitting: ``params`` and ``stderr`` its own (file keys), ``note`` why it
-    failed or what to know."""
+    failed or what to know, ``cost`` what its fit cost wherever it ran (``timing.Cost``: wall time,
+    replays, solver steps, fits; None for a single made from a pair's fit)."""
     candidate: Candidate
     result: FitResult | None
     params: dict = field(default_factory=dict)
     stderr: dict = field(default_factory=dict)
     note: str = ""
+    cost: Cost | None = field(default=None, repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
@@ -71,6 +74,10 @@ class Tried:
 
     def label(self) -> str:
         return self.candidate.label()
+
+    def effect(self) -> str:
+        """The effect's name (the key of its cost in ``timing``)."""
+        return self.candidate.name
 
 
 def own_estimates(res: FitResult, i: int) -> tuple[dict, dict]:
@@ -172,6 +179,15 @@ class Trial:
 
 @single_threaded
 def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate, how: Trial = Trial()) -> Tried:
+    """:func:`fit_candidate`, its cost (wall time, replays, solver steps, fits) measured here, in the
+    process that fits it, and carried back on the result (``Tried.cost``)."""
+    spent = Cost()
+    with timed(spent):
+        tried = fit_candidate(replay.metered(spent), scorer, plant, cand, how)
+    return replace(tried, cost=spent)
+
+
+def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate, how: Trial = Trial()) -> Tried:
     """Fit one candidate (its parameters, the free plant parameters and those of the plant's
     effects numbered in ``how.refit``, jointly) to the record.
 
@@ -221,6 +237,7 @@ class Pair:
     second: Tried
     result: FitResult | None
     note: str = ""
+    cost: Cost | None = field(default=None, repr=False, compare=False)  # as Tried.cost
 
     @property
     def ok(self) -> bool:
@@ -228,6 +245,10 @@ class Pair:
 
     def label(self) -> str:
         return f"{self.first.candidate.label()} + {self.second.candidate.label()}"
+
+    def effect(self) -> str:
+        """The two effects' names, ``"a+b"`` (the key of its cost in ``timing``)."""
+        return f"{self.first.candidate.name}+{self.second.candidate.name}"
 
     def as_second(self) -> Tried:
         """The second candidate as a single whose fit is the pair's (for its rung)."""
@@ -258,6 +279,16 @@ def pairable(a: Tried, b: Tried) -> bool:
 
 @single_threaded
 def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second: Tried,
+             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
+    """:func:`fit_pair`, its cost measured where it runs and carried back (``Pair.cost``), as
+    :func:`try_candidate`'s."""
+    spent = Cost()
+    with timed(spent):
+        pair = fit_pair(replay.metered(spent), scorer, plant, first, second, free_plant, refit)
+    return replace(pair, cost=spent)
+
+
+def fit_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second: Tried,
              free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
     """Fit two candidates jointly (with the free plant parameters and the effects numbered in
     ``refit``); ``k`` counts both.  The local fit starts from the best of their single fits and

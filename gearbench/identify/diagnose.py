@@ -116,6 +116,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     check_names(only)
     with Executor(workers, scheduler) as where:
         tracker = Tracker(progress)
+        replay = replay.metered(tracker.timing)  # what runs here counts to the stage in progress
         scorer = Scorer(replay)
         base = baseline(replay, scorer, plant, free_plant, tracker)
         if calibrate:

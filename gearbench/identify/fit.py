@@ -454,6 +454,8 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     plant as given (unchanged), and says why in ``message``.
     """
     scorer = scorer or Scorer(replay)
+    if replay.meter is not None:
+        replay.meter.fitted()
     if not frees:
         return evaluate(replay, scorer, plant)
     x0 = np.array(start if start is not None else [get_value(plant, f) for f in frees], dtype=float)

@@ -289,9 +289,11 @@ def _alone(ctx: Context, state: State, best: Tried) -> tuple[FitResult, list]:
 
 
 def _look_ahead(ctx: Context, state: State, best: Tried, number: int) -> Ahead:
-    """The next rung's screen (step ``number``) on the model with ``best`` alone (simplified)."""
-    fitted, notes = _alone(ctx, state, best)
-    tried = tuple(screen(ctx, fitted, state.refitted, number))
+    """The next rung's screen (step ``number``) on the model with ``best`` alone (simplified); its
+    stages' time is theirs, the pairs' goes on after it (``Timing.nested``)."""
+    with ctx.tracker.timing.nested():
+        fitted, notes = _alone(ctx, state, best)
+        tried = tuple(screen(ctx, fitted, state.refitted, number))
     nxt = tried[0] if tried and tried[0].ok else None
     reaches = (nxt is not None and ctx.policy.explained(nxt.result)
                and ctx.policy.accepts(ctx.scorer, fitted, nxt.result))

@@ -23,6 +23,7 @@ and the level of its slow part cannot be read from a record of a moving machine.
 """
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -53,6 +54,17 @@ million, and with the solver's own budget (20 million steps a run) each such rep
 failing."""
 MAX_STEP_S = 1e-3
 """A replay's largest solver step, s."""
+
+
+@dataclass
+class _Solved:
+    """What :meth:`Replay.run`'s windows gave so far: their sampled outputs, held inputs, the seams
+    that moved the angles, and the solver's accepted steps and events."""
+    outs: list = field(default_factory=list)
+    seg_u: list = field(default_factory=list)
+    moved: list = field(default_factory=list)
+    steps: int = 0
+    events: int = 0
 
 
 def solver_options(rtol: float = 1e-6) -> SolverOptions:
@@ -110,10 +122,14 @@ def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int 
 class ReplayRun(Mapping):
     """The simulated columns of one :meth:`Replay.run`, by name (``sim[name]``, ``sim.items()``),
     and where that run moved the model's angles to the record's: ``seams``, the window seams'
-    first sample numbers, and ``reinitialised_s``, their times (s from the record's start)."""
+    first sample numbers, and ``reinitialised_s``, their times (s from the record's start);
+    ``steps`` and ``events``: the solver's accepted steps and located events, summed over the
+    windows (what the replay cost; ``timing``)."""
     columns: dict
     seams: tuple[int, ...] = ()
     reinitialised_s: tuple[float, ...] = ()
+    steps: int = 0
+    events: int = 0
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -140,7 +156,9 @@ class Replay:
     their noise floor (:meth:`noise_floor`) and the least drift a window's reset acts on.
 
     Frozen: a run returns what it found (:class:`ReplayRun`) and sets nothing here.  Equal and
-    hashed by identity (it holds the record's arrays).
+    hashed by identity (it holds the record's arrays).  ``meter``: what counts each run and fit
+    (``timing``: a ``Cost`` or ``Timing``, :meth:`metered`), None by default; it stays in this
+    process (a pickled replay leaves it behind).
     """
     data: Measurement
     controller: object | None = None
@@ -151,6 +169,18 @@ class Replay:
     t0: float = field(init=False, repr=False)
     t: np.ndarray = field(init=False, repr=False)
     _windows: dict = field(init=False, repr=False, default_factory=dict)  # "found": windows(), once
+    meter: object | None = field(init=False, repr=False, default=None)
+
+    def metered(self, meter) -> "Replay":
+        """This replay, its runs and fits counted by ``meter`` (``timing.Cost`` or ``timing.Timing``:
+        ``replayed(steps)`` per run, ``fitted()`` per fit).  A shallow copy: the record and the
+        windows found are shared, so its runs are this replay's."""
+        out = copy.copy(self)
+        object.__setattr__(out, "meter", meter)
+        return out
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "meter": None}  # a meter counts in its own process only
 
     def __post_init__(self):
         t = self.data.time_s
@@ -360,32 +390,13 @@ class Replay:
         which stalled the fit in false minima."""
         self.check(plant)
         held = None if seams is None else frozenset(seams)
-        p = self.pack(plant)
-        sc = self.scales(plant)
-        x = self.initial_state(plant)
-        outs = []
-        seg_u = []
-        moved = []
-        windows = self.windows(plant)
-        motion = self.motion(plant) if len(windows) > 1 else None
-        for a, b in windows:
-            if a > 0 and self._reset_angles(x, a, plant, outs[-1], motion, held):
-                moved.append(a)
-            segs = self._segments(plant, a, b)
-            t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
-            times = self.t[a:b] - self.t[a]
-            options = replace(self.options, max_steps=min(self.options.max_steps, STEPS_PER_SAMPLE * (b - a)))
-            run = simulate_packed(p, sc, segs, max(t_end, times[-1]), x, options,
-                                  label, output_times=times)
-            if not run.ok:
-                msg = failure_message(run, plant.name, plant)
-                raise ReplayRunError(msg.replace(f"t = {run.stats[L.S_T_FAIL]:.6g} s",
-                                              f"t = {self.t[a] + run.stats[L.S_T_FAIL] + self.t0:.6g} s"))
-            outs.append(run.outputs)
-            seg_u.append(run.meta["segment_input"])
-            x = run.meta["x_end"].copy()
-            x[L.X_IAE] = x[L.X_ISE] = 0.0
-        out = np.vstack(outs)
+        solved = _Solved()
+        try:
+            self._solve(plant, held, label, solved)
+        finally:
+            if self.meter is not None:
+                self.meter.replayed(solved.steps)
+        out = np.vstack(solved.outs)
         sim = {}
         for name in self.data.signals:
             y = S.from_outputs(name, out, plant)
@@ -393,8 +404,37 @@ class Replay:
                 y = e.effect.measure(e.values, name, y, self.t, plant)
             sim[name] = y
         if self.closed_loop:
-            sim[self.data.input_name] = np.concatenate(seg_u)
-        return ReplayRun(sim, tuple(moved), tuple(float(self.t[a]) for a in moved))
+            sim[self.data.input_name] = np.concatenate(solved.seg_u)
+        moved = solved.moved
+        return ReplayRun(sim, tuple(moved), tuple(float(self.t[a]) for a in moved), solved.steps, solved.events)
+
+    def _solve(self, plant: Plant, held: frozenset | None, label: str, solved: "_Solved") -> None:
+        """:meth:`run`'s windows, one after the other, into ``solved`` (it keeps the steps of a
+        window that failed before :class:`ReplayRunError` is raised)."""
+        p = self.pack(plant)
+        sc = self.scales(plant)
+        x = self.initial_state(plant)
+        windows = self.windows(plant)
+        motion = self.motion(plant) if len(windows) > 1 else None
+        for a, b in windows:
+            if a > 0 and self._reset_angles(x, a, plant, solved.outs[-1], motion, held):
+                solved.moved.append(a)
+            segs = self._segments(plant, a, b)
+            t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
+            times = self.t[a:b] - self.t[a]
+            options = replace(self.options, max_steps=min(self.options.max_steps, STEPS_PER_SAMPLE * (b - a)))
+            run = simulate_packed(p, sc, segs, max(t_end, times[-1]), x, options,
+                                  label, output_times=times)
+            solved.steps += run.steps
+            solved.events += int(run.stats[L.S_EVENTS])
+            if not run.ok:
+                msg = failure_message(run, plant.name, plant)
+                raise ReplayRunError(msg.replace(f"t = {run.stats[L.S_T_FAIL]:.6g} s",
+                                              f"t = {self.t[a] + run.stats[L.S_T_FAIL] + self.t0:.6g} s"))
+            solved.outs.append(run.outputs)
+            solved.seg_u.append(run.meta["segment_input"])
+            x = run.meta["x_end"].copy()
+            x[L.X_IAE] = x[L.X_ISE] = 0.0
 
     def residuals(self, sim: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Measured minus simulated, per compared column."""

@@ -59,6 +59,7 @@ class Diagnosis:
     noise: dict = field(default_factory=dict)  # column -> {floor, unit, stated}
     residual_tests: dict = field(default_factory=dict)  # column -> residuals.ResidualTest of the final model
     not_tried: dict = field(default_factory=dict)  # effect -> why it cannot act on this plant and record
+    timing: dict = field(default_factory=dict)  # timing.Timing.report(): where the time went
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -127,7 +128,12 @@ class Diagnosis:
         record, each with why (:func:`not_tried`).
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
-        ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads."""
+        ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads.
+        ``timing``: where the time went (``timing.Timing.report``), ``{"wall_s", "stages": [{"stage",
+        "wall_s", "replays", "solver_steps", "fits"}], "candidates": [{"effect", "wall_s", "replays",
+        "fits"}]}``: per stage of :data:`~gearbench.identify.progress.STAGES` (each once, summed over
+        the rungs, in the order they first came) and per candidate effect (its places and rungs summed;
+        a pair ``"a+b"``); ``docs/diagnose-json.md``."""
         return {
             "ranking": RANKING,
             "baseline_error": self.baseline_error,
@@ -157,6 +163,7 @@ class Diagnosis:
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
                 "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
+            "timing": self.timing,
         }
 
 
@@ -205,7 +212,9 @@ def steps(ctx: Context, state: State) -> list[Step]:
 
 
 def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> Diagnosis:
-    """The :class:`Diagnosis` of the climb's last ``state`` (its ``stop`` set) from the baseline ``base``."""
+    """The :class:`Diagnosis` of the climb's last ``state`` (its ``stop`` set) from the baseline ``base``;
+    its ``timing`` up to now, the last stage ended where the climb did."""
+    ctx.tracker.timing.switch(None)
     ladder = steps(ctx, state)
     res, scorer, replay = state.model, ctx.scorer, ctx.replay
     verdict = ladder[state.owners[0]].effect if state.owners else None
@@ -218,4 +227,4 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
                      list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
                      scorer.relative_pct(base.sim),
                      ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
-                     why, noise(replay, scorer), tests, not_tried)
+                     why, noise(replay, scorer), tests, not_tried, ctx.tracker.timing.report())

@@ -281,4 +281,79 @@ def _calibration_line(name: str, c: Mapping) -> str:
             + f" {c['unit']} (tolerance {c['tolerance_pct']:g} %)")
 
 
-__all__ = ["comparison_figure", "residual_figure", "residual_tests_figure", "ladder_figure", "PHASE_COLOURS"]
+def comparison_figures(cmp, what: str) -> list[tuple[str, Figure]]:
+    """Every figure of a comparison, as ``gearbench compare`` saves them: ``(file name, Figure)``.
+
+    Per compared signal, measured against simulated with the residual, the phases and the
+    record's inputs (:func:`comparison_figure`); the primary signal's residual against the
+    motion (:func:`residual_figure`) when the record moves; the residual tests
+    (:func:`residual_tests_figure`) when they were run.
+
+    Parameters
+    ----------
+    cmp : gearbench.api.Comparison
+        The model against the record.
+    what : str
+        What the titles call the pair, e.g. ``"bench_rig.yaml against bench_rig_hidden.csv"``.
+
+    Returns
+    -------
+    list of (str, matplotlib.figure.Figure)
+        ``<signal>.png``, ``<primary>_residual_vs_motion.png``, ``residual_tests.png``.
+    """
+    from ..measure.signals import per_rad
+    c, data, plant = cmp.figures, cmp.data, cmp.plant
+    inputs = [] if cmp.closed_loop else [(data.input_name, data.input, data.input_unit)]
+    if data.setpoint is not None:
+        inputs.append((data.setpoint_name, data.setpoint, data.setpoint_name.rsplit("_", 1)[1]))
+    out = []
+    for row in c["signals"]:
+        name = row["signal"]
+        out.append((f"{name}.png", comparison_figure(
+            cmp.time_s, cmp.measured(name), c["sim"][name], c.get("labels"), name, row["unit"],
+            title=f"{name}: {what}", inputs=inputs, reinit_s=c.get("reinitialised_s", ()))))
+    if "labels" in c:
+        p = c["primary"]
+        unit = next(r["unit"] for r in c["signals"] if r["signal"] == p)
+        out_name, pos_unit = ("load_position_mm", "mm") if plant.leadscrew else ("load_angle_deg", "deg")
+        k = per_rad(out_name, plant)
+        fig = residual_figure(c["residuals"][p], k * c["speed"], k * c["position"], p, unit,
+                              f"{pos_unit}/s at the output", f"{pos_unit} at the output")
+        fig.suptitle(what)
+        out.append((f"{p}_residual_vs_motion.png", fig))
+    if c.get("residual_tests"):
+        out.append(("residual_tests.png", residual_tests_figure(c["residual_tests"], f"residual tests: {what}")))
+    return out
+
+
+def rung_residuals_figure(time_s, residuals: Sequence[tuple[str, object]], labels, name: str, unit: str,
+                          title: str = "") -> Figure:
+    """The residual of ``name`` (``unit``) against time (s) as a ladder climbs, one panel per
+    model: ``residuals`` is ``(label, residual)`` from the baseline to the last rung, so each
+    rung's panel is its "after" and the one above its "before".  Each panel has its own scale
+    (an error falling by decades would flatten the later ones) and names its RMS; the motion's
+    phases are shaded when ``labels`` are given."""
+    residuals = list(residuals)
+    if not residuals:
+        raise ValueError("rung_residuals_figure needs at least the baseline's residual")
+    t = np.asarray(time_s, dtype=float)
+    fig = Figure(figsize=(9, 1.5 * len(residuals) + 0.8), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(len(residuals), 1, sharex=True))
+    for ax, (label, r) in zip(axes, residuals):
+        r = np.asarray(r, dtype=float)
+        ax.plot(t, r, lw=0.7, color="C3")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_title(f"{label}: RMS {float(np.sqrt(np.mean(r ** 2))):.4g} {unit}", fontsize=9, loc="left")
+        ax.set_ylabel(unit)
+        ax.grid(alpha=0.3)
+        if labels is not None:
+            _shade_phases(ax, t, np.asarray(labels).astype(str))
+    if labels is not None:
+        _phase_legend(axes[0], np.asarray(labels).astype(str))
+    axes[-1].set_xlabel("time (s)")
+    fig.suptitle(title or f"{name} residual (measured - simulated) as effects are added")
+    return fig
+
+
+__all__ = ["comparison_figure", "residual_figure", "residual_tests_figure", "ladder_figure", "comparison_figures",
+           "rung_residuals_figure", "PHASE_COLOURS"]
