@@ -4,11 +4,13 @@
 #   make test  - create .venv, install with test extras, run the test suite
 #   make test-all - the same with the slow tests too (the 10,000-input fuzz, every hidden-effect
 #                case on its 16 s record)
+#   make docs  - create .venv, install with the docs extras, build the docs site into site/ (strict:
+#                a broken link, a page missing from the nav or a failing API reference fails)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test test-all bench clean-cache install install-test
+.PHONY: run test test-all docs bench clean-cache install install-test install-docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -47,6 +49,14 @@ test: install-test
 
 test-all: install-test
 	$(BIN)/python -m pytest -q --runslow
+
+install-docs: $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+
+# NO_MKDOCS_2_WARNING, DISABLE_MKDOCS_2_WARNING: the theme's and a plugin's banners about
+# MkDocs' future, printed on every build, say nothing about this site
+docs: install-docs
+	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(BIN)/mkdocs build --strict --site-dir site
 
 bench: install
 	$(BIN)/python benchmarks/bench_table1.py

@@ -30,7 +30,7 @@ run = gb.simulate(plant, {"kind": "pi", "kp": 200, "ki": 0.005}, mine)
 print(f"ramp, PI Kp=200: IAE {run.iae_deg_s:.4f} deg s; output at 3 s: {run['load_angle_deg'][-1]:.3f} deg")
 
 # 3. The model against a measured record, and the two effects it misses, fitted
-#    (the README's tutorial: the record hides a load spring and Coulomb friction).
+#    (the tutorial, docs/tutorial.md: the record hides a load spring and Coulomb friction).
 rig, record = REPO / "experiments/plants/bench_rig.yaml", REPO / "experiments/data/bench_rig_hidden.csv"
 before = gb.compare(rig, record)
 print(before.to_pandas()[["unit", "rms_error", "noise_floor", "ratio_to_noise"]].to_string())

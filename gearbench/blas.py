@@ -4,7 +4,7 @@ A replay calls BLAS thousands of times on tiny arrays (the straight-line fit of 
 re-initialisation window, dot products of residual vectors, least squares' small
 factorisations).  OpenBLAS spreads even those over its threads, whose start-up and
 busy-waiting cost more than the work: measured on this 2-core machine, fitting the first
-rung's 14 candidates of the README tutorial's record (``diagnose``'s screen, shaft
+rung's 14 candidates of the tutorial's record, docs/tutorial.md (``diagnose``'s screen, shaft
 compliance left out) took 16.7 s in one process with OpenBLAS's default two threads and
 9.1 s with one; on two worker processes 13.7 s against 6.7 s (each worker's BLAS threads
 competed with the other worker for the two cores).  So the fitting entry points and every

@@ -18,7 +18,7 @@ and, beside them, for the white-residual formula ``s^2 (J^T J)^-1`` they replace
 ``steps`` excitation is the one ``tests/test_uncertainty.py`` asserts on (coverage >= 90 %
 for every parameter and noise); ``mixed`` (the practice cases' input) is reported too.
 
-Then the README tutorial's two fits, as a user makes them, on its record made again with
+Then the tutorial's two fits (docs/tutorial.md), as a user makes them, on its record made again with
 other seeds (:func:`tutorial_one`): 10 s of steps, a load spring of 2 N m/rad relaxed at 0 deg
 and stick-slip Coulomb friction of 0.96 N m at the load hidden (``TUTORIAL``), made at
 ``SYNTH_RTOL``; ``gearbench.fit`` of the spring alone from the plant file, then of the friction

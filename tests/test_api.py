@@ -259,7 +259,7 @@ def test_api_equals_the_runner_for_a_table1_cell():
     assert run.ok
     assert run.iae_deg_s == pytest.approx(record.result.iae_deg_s, rel=1e-9)
     assert run.scores["impacts"] == record.result.impacts
-    assert round(run.iae_deg_s, 2) == 2.16  # README's Table I
+    assert round(run.iae_deg_s, 2) == 2.16  # Table I (docs/thesis.md)
 
 
 def test_run_experiment_wraps_every_run():

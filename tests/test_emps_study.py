@@ -121,7 +121,7 @@ def test_a_clearance_or_a_shaft_needs_a_rotor_the_plant_file_did_not_lump_into_t
 
 @pytest.mark.slow
 def test_the_whole_library_ladder_takes_the_papers_friction_and_an_offset_in_minutes(runs, ctrl):
-    """The README's whole-library EMPS ladder (``make run`` regenerates it; 95-196 s): unaided it
+    """The whole-library EMPS ladder of docs/real-data.md (``make run`` regenerates it; 95-196 s): unaided it
     takes the paper's first two rungs, Coulomb then viscous friction, and ends with a term that plays
     the offset (a load spring relaxed far outside the travel, 5.77 %) within 0.1 point of the paper
     structure's 5.78 %, having tried no backlash or shaft on the lumped rotor."""

@@ -1,7 +1,7 @@
-"""The README tutorial's numbers, regenerated: compare, diagnose and fit on the
+"""The tutorial's numbers (docs/tutorial.md), regenerated: compare, diagnose and fit on the
 shipped record ``experiments/data/bench_rig_hidden.csv`` (the bench rig with a
 load spring of 2 N m/rad and Coulomb friction of 0.96 N m at the load hidden,
-``bench_rig_hidden.truth.json``), to the digits the README prints."""
+``bench_rig_hidden.truth.json``), to the digits the tutorial prints."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -71,7 +71,7 @@ def test_fit_coverage(rho):
 
 
 def test_the_tutorials_fits_coverage():
-    """``studies.coverage``'s second part: the README tutorial's two fits (the spring alone, then the
+    """``studies.coverage``'s second part: the tutorial's two fits (the spring alone, then the
     friction with ``refit``) on 30 seeds of its 10 s record, rest angle at 0 deg: the truth within
     +-2 reported standard errors in >= 90 % of fits for the stiffness, rest angle and friction
     (100, 90 and 93 % when written; with the finite-difference step relative to the value, as

@@ -247,7 +247,7 @@ def evaluate(d: Any, params: Mapping[str, float], *, emulate_matlab: bool = True
 
 def idim_ladder(train: Any, test: Any | None = None, *,
                 emulate_matlab: bool = True) -> list[dict[str, Any]]:
-    """The README ladder: one physical effect per row, fitted on ``train``, scored on ``test``.
+    """The ladder of docs/real-data.md: one physical effect per row, fitted on ``train``, scored on ``test``.
 
     Rows: "M only", "+ viscous", "+ Coulomb", "+ offset (paper)", "asymmetric friction".  Each
     row is ``{"model": label, "params": {...}, "train_rel_error_pct": %,
