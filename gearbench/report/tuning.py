@@ -18,7 +18,8 @@ def _label(c: Controller) -> str:
 
 def response_figure(result) -> Figure:
     """Set point and output angle (deg), output error (deg) and voltage (V) against time, on the
-    nominal plant, for the untuned controller and the best tuned one (``result``: a TuneResult)."""
+    plant tuned on (the centre of the draws when robust), for the untuned controller and the best
+    tuned one (``result``: a TuneResult)."""
     from ..profiles import load_profile
     prof = load_profile(result.profile)
     fig = Figure(figsize=(9, 7), layout="constrained")
@@ -34,7 +35,8 @@ def response_figure(result) -> Figure:
         ax3.plot(df["time_s"], df["voltage_V"], lw=0.6, color=f"C{i}", alpha=0.8)
     ax1.set_ylabel("output angle (deg)")
     ax1.legend(loc="best", fontsize=8)
-    ax1.set_title(f"{result.plant.name}: {result.profile}, untuned and tuned (nominal plant)")
+    centre = "" if result.plants == 1 else f", the centre of the {result.plants} plants drawn"
+    ax1.set_title(f"{result.plant.name}: {result.profile}, untuned and tuned, on the plant tuned on{centre}", fontsize=10)
     ax2.set_ylabel("output error (deg)")
     ax3.set_ylabel("voltage (V)")
     ax3.set_xlabel("time (s)")
