@@ -64,6 +64,7 @@ CASES = {  # label -> (effect, plant file, hidden values, main parameter)
     "sensor_delay": ("sensor_delay", "bench_rig.yaml", {"signal": "load_angle_deg", "delay": 0.008}, "delay"),
     "encoder_quantization": ("encoder_quantization", "bench_rig.yaml",
                              {"signal": "motor_angle_deg", "counts_per_rev": 2048}, "counts_per_rev"),
+    "sensor_offset": ("sensor_offset", "bench_rig.yaml", {"signal": "current_A", "offset": 0.02}, "offset"),
 }
 
 NULL_CASES = (  # plant file (under experiments/plants/), seed: no effect hidden, each plant with its own noise

@@ -150,18 +150,9 @@ class Diagnosis:
             "reason": self.reason,
             "stopped": self.stopped,
             "baseline_relative_error_pct": self.baseline_relative_pct,
-            "ladder": [{"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
-                        "params": s.params, "stderr": s.stderr, "error": s.error,
-                        "relative_error_pct": s.relative_error_pct, "model": s.model,
-                        "plant_params": s.plant_params, "explanation": s.explanation,
-                        "correlations": s.correlations}
-                       for s in self.ladder],
+            "ladder": [step_json(s) for s in self.ladder],
             "noise_floors": self.noise,
-            "residual_tests": {name: {"input": t.input_name, "white": t.white,
-                                      "input_independent": t.input_independent,
-                                      "lag1": float(t.autocorrelation[1]), "ljung_box_p": t.ljung_box_p,
-                                      "sentence": t.sentence()}
-                               for name, t in self.residual_tests.items()},
+            "residual_tests": {name: residual_test_json(t) for name, t in self.residual_tests.items()},
             "not_tried": self.not_tried,
             **({"gaps": self.gaps} if self.gaps else {}),
             "calibration": self.calibration,
@@ -170,6 +161,21 @@ class Diagnosis:
                 "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
             "timing": self.timing,
         }
+
+
+def step_json(s) -> dict:
+    """One step of ``diagnose --json``'s ``ladder`` (:meth:`Diagnosis.to_json`)."""
+    return {"effect": s.effect, "action": s.action, **({"options": s.options} if s.options else {}),
+            "params": s.params, "stderr": s.stderr, "error": s.error,
+            "relative_error_pct": s.relative_error_pct, "model": s.model,
+            "plant_params": s.plant_params, "explanation": s.explanation,
+            "correlations": s.correlations}
+
+
+def residual_test_json(t) -> dict:
+    """One column's ``residual_tests`` entry of ``diagnose --json`` (:class:`residuals.ResidualTest`)."""
+    return {"input": t.input_name, "white": t.white, "input_independent": t.input_independent,
+            "lag1": float(t.autocorrelation[1]), "ljung_box_p": t.ljung_box_p, "sentence": t.sentence()}
 
 
 def candidate_json(t: Tried) -> dict:

@@ -219,10 +219,13 @@ def residual_tests_block(tests: Mapping) -> str:
 def noise_table(noise: Mapping) -> str:
     """Per compared column its noise floor (its unit) and where it came from."""
     return (table(["signal", "noise floor", "unit", "from"],
-                  [[k, num(v["floor"], ".4g"), v["unit"], "stated" if v.get("stated") else "the record"]
+                  [[k, num(v["floor"], ".4g"), v["unit"], "stated" if v.get("stated") else
+                    f"the record ({v['rule']})" if v.get("rule") else "the record"]
                    for k, v in noise.items()], numeric=(1,))
             + "<p class=sub>Each floor is the column's noise, a standard deviation in its unit: stated (--noise, "
-              "--noise-from) or read from the record's third differences (white noise assumed).</p>")
+              "--noise-from) or read from the record (gearbench.measure.noise): 'differences', the third "
+              "differences' scale (white noise assumed); on an encoder's grid of step q, 'quantum', q/sqrt(12), or "
+              "'quantized differences', the noise before the rounding added to it.</p>")
 
 
 def _caption(file_name: str, primary: str) -> str:
