@@ -1,7 +1,9 @@
 """The practice cases (data/cases/, an independent event-driven simulator with the truth beside
 each record) are in the repository and read by gearbench's own loaders: every file is there,
-loads, and says what data/cases/README.md says it does; and (slow) what diagnose makes of
-p01-p03 is the truth.  p04's datasheet errors need a calibration diagnose does not do."""
+loads, and says what data/cases/README.md says it does; the true plant replays every record to
+its noise, p05-p13's real sensors (coloured noise, no load angle, 250 Hz, quantized encoders, an
+offset) and other plants and excitations too; and (slow) what diagnose makes of p01-p04 is the
+truth."""
 from __future__ import annotations
 
 import math
@@ -150,3 +152,51 @@ def test_diagnose_finds_the_hidden_effects(case):
         section, key = path.split(".")
         got = getattr(getattr(d.plant, section), key)
         assert got == pytest.approx(values["true"], rel=0.05), (path, got, values, d.to_json()["calibration"])
+
+
+REAL_SENSOR_CASES = ("p05", "p06", "p07", "p08", "p09", "p10", "p11", "p12", "p13")
+"""The practice cases with a real rig's sensors (coloured noise, no load angle, 250 Hz, quantized
+encoders, a current offset) and, from p10, their own plants and excitations."""
+
+
+def offsets(truth: dict) -> dict[str, float]:
+    """A sensor's constant offset per column: ``realism.offset`` (p05-p09) or ``noise_model``'s."""
+    out = dict((truth.get("realism") or {}).get("offset") or {})
+    out.update({k: m["offset"] for k, m in (truth.get("noise_model") or {}).items() if "offset" in m})
+    return out
+
+
+def replay_of_the_truth(case: str, window_s: float) -> tuple[dict, dict[str, float]]:
+    """The truth file and, per recorded column, the RMS residual of the true plant (with the record's
+    sensor offsets as ``sensor_offset`` effects) over the column's true noise."""
+    folder = DATA / "cases" / case
+    truth = yaml.safe_load((folder / "truth.yaml").read_text())
+    record = read_measurement(folder / "data.csv")
+    plant = true_plant(truth, case)
+    plant = replace(plant, effects=plant.effects + tuple(
+        AddedEffect("sensor_offset", {"signal": k, "offset": v}) for k, v in offsets(truth).items()))
+    rows = {r["signal"]: r for r in comparison(Replay(record, window_s=window_s), plant)["signals"]}
+    return truth, {name: rows[name]["rms_error"] / truth["true_noise"][name] for name in rows}
+
+
+@pytest.mark.parametrize("case", REAL_SENSOR_CASES)
+def test_the_true_plant_replays_each_real_sensor_record_to_its_true_noise(case):
+    """gearbench's simulator against the independent one under a real rig's sensors, rates and
+    excitations: the true plant, replayed open loop over the whole record (no re-initialisation,
+    the voltage held at the record's rate: 250 Hz in p07 and p12), leaves on every recorded
+    column a residual at the record's true noise, the RMS of everything that is noise there
+    (coloured, quantized: the model is not quantized, so the rounding is in the residual as
+    ``true_noise`` counts it).  Measured 0.98-1.02 on every column of p05-p13.  The records'
+    columns are the ones the truth lists."""
+    truth, ratios = replay_of_the_truth(case, window_s=0.0)
+    assert set(ratios) == set(truth["true_noise"]) - {"current_A (mean, the offset)"}
+    assert all(0.95 < r < 1.05 for r in ratios.values()), ratios
+
+
+@pytest.mark.xfail(strict=True, reason="re-initialised every second, p10's true plant misses the motor "
+                   "angle by 1.59x its true noise (the per-second RMS 0.08-0.12 deg after t = 10 s, against "
+                   "0.04 before and 1.00x with no re-initialisation): a reset from the AR(1) 0.9 noisy angles "
+                   "there puts the model off; cause not found yet (issue 37, parts 1 and 4)")
+def test_window_resets_from_coloured_noise_keep_the_true_plant_at_its_noise():
+    _, ratios = replay_of_the_truth("p10", window_s=1.0)
+    assert all(r < 1.05 for r in ratios.values()), ratios

@@ -1,0 +1,146 @@
+"""Benchmark: ``gearbench diagnose`` on the practice cases (issue 38): time, and right or wrong.
+
+The practice cases (``data/cases/p01``-``p13``) come from an independent event-driven simulator
+with true stick-slip friction, 10-16 s each, some with the sensors of a real rig (coloured noise,
+quantized encoders, an offset, no load angle, 250 Hz): the long records the bench-rig ladder
+(``bench_ladder.py``) does not see.  Each is diagnosed by ``gearbench diagnose nominal.yaml
+data.csv --json`` in a fresh process (the compiled core loaded from numba's disk cache), timed
+from the command's start to its exit, and scored against its ``truth.yaml``:
+
+* ``verdict_right``: the ladder's effects are the hidden ones (none for a null case);
+* ``params``: per hidden parameter the fitted value and its relative error (``clearance_deg``
+  against ``backlash_deg``, ``rest_angle`` in rad against ``rest_angle_deg``);
+* ``end_over_true_noise``: the model's end (the last rung's error, else the baseline's) over the
+  record's true noise on the error signal (``true_noise``, else ``noise_sigma``);
+* ``timing``: the diagnosis' own breakdown (``diagnose --json``'s ``timing``).
+
+Targets (issue 38, 2 quiet cores): each case <= 60 s, the median <= 30 s.  The machine's load
+average before and after each case is stored beside it: a figure measured beside other work is
+no figure of the code alone.
+
+    python benchmarks/bench_practice.py                 # every case -> bench.json "practice"
+    python benchmarks/bench_practice.py --only p01 --only p09
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import click
+import yaml
+
+from bench_ladder import NEUTRAL, check_imported, gearbench
+
+REPO = Path(__file__).resolve().parents[1]
+CASES = REPO / "data" / "cases"
+NAMES = sorted(p.name for p in CASES.glob("p[0-9][0-9]"))
+TARGET_S, MEDIAN_TARGET_S = 60.0, 30.0
+RENAMED = {"clearance_deg": "backlash_deg"}
+SKIPPED = {"clearance", "location", "signal"}  # SI duplicates of a degree value, and options
+
+
+def expected(truth: dict) -> list[dict]:
+    """The hidden effects as ``{effect, location, params}`` in the plant file's names and units."""
+    out = []
+    for e in truth.get("hidden_effects") or []:
+        params = {}
+        for key, value in e.get("params", {}).items():
+            if key in SKIPPED:
+                continue
+            if key == "rest_angle":
+                key, value = "rest_angle_deg", math.degrees(value)
+            params[RENAMED.get(key, key)] = value
+        out.append({"effect": e["effect"], "location": e.get("params", {}).get("location"), "params": params})
+    return out
+
+
+def score(truth: dict, report: dict) -> dict:
+    """The diagnosis against the truth: verdict, parameters, the model's end over the true noise."""
+    hidden = expected(truth)
+    added = [s for s in report["ladder"] if s.get("action", "add") == "add"]
+    removed = {s["effect"] for s in report["ladder"] if s.get("action") == "remove"}
+    kept = [s for s in added if s["effect"] not in removed]
+    found = sorted(s["effect"] for s in kept)
+    params = {}
+    for h in hidden:
+        step = next((s for s in kept if s["effect"] == h["effect"]
+                     and h["location"] in (None, s.get("options", {}).get("location"))), None)
+        for key, true in h["params"].items():
+            got = None if step is None else step["params"].get(key)
+            params[f"{h['effect']}.{key}"] = {"true": true, "fitted": got, "relative_error": (
+                None if got is None or true == 0 else abs(got - true) / abs(true))}
+    noise = truth.get("true_noise") or truth.get("noise_sigma") or {}
+    signal = report["error_signal"]
+    end = kept[-1]["error"] if kept else report["baseline_error"]
+    return {"expected": sorted(h["effect"] for h in hidden), "found": found,
+            "verdict_right": found == sorted(h["effect"] for h in hidden), "params": params,
+            "error_signal": signal, "end": end, "true_noise": noise.get(signal),
+            "end_over_true_noise": end / noise[signal] if noise.get(signal) else None}
+
+
+def run_case(name: str, python: str, pythonpath: str | None, timeout: float, out: Path) -> dict:
+    folder = CASES / name
+    truth = yaml.safe_load((folder / "truth.yaml").read_text())
+    cmd, env = gearbench(python, pythonpath)
+    args = cmd + ["diagnose", str(folder / "nominal.yaml"), str(folder / "data.csv"), "--json",
+                  "--results", str(out / name)]
+    load_before = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    try:
+        p = subprocess.run(args, env=env, capture_output=True, text=True, timeout=timeout, cwd=NEUTRAL)
+    except subprocess.TimeoutExpired:
+        return {"wall_s": None, "status": f"stopped after {timeout:g} s", "load_before": load_before}
+    row = {"wall_s": time.perf_counter() - t0, "target_s": TARGET_S, "exit": p.returncode,
+           "load_before": load_before, "load_after": os.getloadavg()[0]}
+    if p.returncode != 0:
+        return {**row, "status": "failed", "stderr": p.stderr[-2000:]}
+    report = json.loads(p.stdout)
+    return {**row, "status": "ok", "verdict": report["verdict"], "stopped": report.get("stopped"),
+            "reason": report["reason"], **score(truth, report),
+            "ladder": [{"effect": s["effect"], "action": s.get("action", "add"), "params": s["params"],
+                        "error": s["error"]} for s in report["ladder"]],
+            "timing": report.get("timing")}
+
+
+def summary(rows: dict) -> dict:
+    walls = [r["wall_s"] for r in rows.values() if r.get("wall_s") is not None]
+    return {"cases": len(rows), "median_wall_s": statistics.median(walls) if walls else None,
+            "max_wall_s": max(walls) if walls else None, "median_target_s": MEDIAN_TARGET_S,
+            "within_target": sum(1 for r in rows.values() if r.get("wall_s") is not None
+                                 and r["wall_s"] <= TARGET_S),
+            "verdicts_right": sum(1 for r in rows.values() if r.get("verdict_right"))}
+
+
+@click.command()
+@click.option("--python", default=sys.executable, show_default=True, help="Interpreter that runs gearbench.")
+@click.option("--pythonpath", default=None, help="A checkout whose gearbench to run instead (PYTHONPATH).")
+@click.option("--label", default="", help="Stored as practice_<label> in results/bench.json (default: practice).")
+@click.option("--only", "names", multiple=True, type=click.Choice(NAMES), help="Only these cases.")
+@click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
+def main(python, pythonpath, label, names, timeout):
+    from bench_store import merge
+    check_imported(python, pythonpath)
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in names or NAMES:
+            rows[name] = r = run_case(name, python, pythonpath, timeout, Path(tmp))
+            print(f"{name}: {r['status']}, {r['wall_s'] and round(r['wall_s'], 1)} s (load {r['load_before']:.1f}); "
+                  f"found {r.get('found')} expected {r.get('expected')}; end/true noise "
+                  f"{r.get('end_over_true_noise') and round(r['end_over_true_noise'], 2)}", flush=True)
+    code = Path(pythonpath).resolve() if pythonpath else REPO
+    commit = subprocess.run(["git", "-C", str(code), "describe", "--always", "--dirty"], capture_output=True,
+                            text=True).stdout.strip() or None
+    merge({f"practice_{label}" if label else "practice": {
+        "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(), "commit": commit,
+        "other_checkout": bool(pythonpath), "summary": summary(rows), "cases": rows}})
+
+
+if __name__ == "__main__":
+    main()
