@@ -64,6 +64,7 @@ bench: install
 	$(BIN)/python benchmarks/bench_diagnose.py
 	$(BIN)/python benchmarks/bench_dask_diagnose.py
 	$(BIN)/python benchmarks/bench_ladder.py
+	$(BIN)/python benchmarks/bench_practice.py
 	$(BIN)/python benchmarks/bench_tune.py
 
 clean-cache:

@@ -271,6 +271,10 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     fig = ladder_figure(d.ladder_steps(), noise_floor=d.noise_floor, unit=d.unit,
                         title=f"{plant.name}: {data_file.name}", calibration=cal)
     ladder_png = save_figure_atomic(fig, out / "ladder.png")
+    if d.missing is not None:
+        from .report.missing import missing_torque_figure
+        save_figure_atomic(missing_torque_figure(d.missing, f"{plant.name}: {data_file.name}"),
+                           out / "missing_torque.png")
     write_text_atomic(out / "diagnose.json", json.dumps(j, indent=1) + "\n")
     write_text_atomic(out / "diagnose.md", d.to_markdown(f"diagnose {plant.name} against {data_file.name}"))
     try:

@@ -12,6 +12,7 @@ from .explain import not_driven, reason, rung_text, simplified_text
 from .fit import FitResult
 from .scoring import Scorer
 from .ladder import CalibrationStep, Context, State, correlated
+from .missing import MissingTorque, missing_torque
 from .replay import Replay
 from .residuals import DEFAULT_LAGS, replay_residual_tests
 
@@ -61,6 +62,7 @@ class Diagnosis:
     not_tried: dict = field(default_factory=dict)  # effect -> why it cannot act on this plant and record
     timing: dict = field(default_factory=dict)  # timing.Timing.report(): where the time went
     gaps: dict | None = None  # measure.gaps.Gaps.to_dict() of the record's missing samples, when asked to fill them
+    missing: MissingTorque | None = None  # the final model's residual as a torque, when it ends above its noise
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -96,6 +98,9 @@ class Diagnosis:
                       f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
                       + ", ".join(f"{p} = {v:.4g}" for p, v in s.params.items()) + f" | {s.error:.4g} {unit} |")
         md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(self.ladder, 1)] + ["", "![ladder](ladder.png)"]
+        if self.missing is not None:
+            md += ["", "## The torque the model misses", "", self.missing.sentence() + ".", "",
+                   "![missing torque](missing_torque.png)"]
         if self.not_tried:
             md += ["", "Not tried (they cannot act on this plant and record):", ""]
             md += [f"- {name}: {why}" for name, why in self.not_tried.items()]
@@ -133,6 +138,11 @@ class Diagnosis:
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads.
+        ``missing_torque``: when the ladder ends above the record's noise (not stopped at the noise
+        floor, not interrupted), the final model's residual as the torque that would explain it,
+        :meth:`missing.MissingTorque.to_dict` (``signal``, ``unit``, ``rms``, ``signatures``, ``resembles``,
+        ``resembles_words``, ``against``: binned means against ``position_deg``, ``speed_deg_s``,
+        ``time_s``, and a ``sentence``); else null.
         ``timing``: where the time went (``timing.Timing.report``), ``{"wall_s", "stages": [{"stage",
         "wall_s", "replays", "solver_steps", "fits"}], "candidates": [{"effect", "wall_s", "replays",
         "fits"}]}``: per stage of :data:`~gearbench.identify.progress.STAGES` (each once, summed over
@@ -159,6 +169,7 @@ class Diagnosis:
             "calibration_step": None if self.calibration_step is None else {
                 "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
                 "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
+            "missing_torque": None if self.missing is None else self.missing.to_dict(),
             "timing": self.timing,
         }
 
@@ -235,9 +246,11 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
     said = reason(ctx, state)
     if why == "nothing pays" and not ctx.policy.explained(res):
         said = not_driven(said, tests, replay)
+    above = why != "interrupted" and not ctx.policy.explained(res) and res.sim is not None
+    missing = missing_torque(replay, res.plant, res.sim, scorer.primary) if above else None
     return Diagnosis(base.error, scorer.noise_floor, replay.unit(scorer.primary), scorer.primary,
                      list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
                      scorer.relative_pct(base.sim),
                      ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
                      why, noise(replay, scorer), tests, not_tried, ctx.tracker.timing.report(),
-                     replay.data.gaps.to_dict() if replay.data.gaps else None)
+                     replay.data.gaps.to_dict() if replay.data.gaps else None, missing)

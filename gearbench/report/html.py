@@ -492,6 +492,7 @@ def diagnosis_page(report, plant_file: str | Path | None = None, data_file: str 
             section("The ladder", ladder_table(d), figure(ladder, "the error as effects are added"), *before_after,
                     section_id="ladder-section"),
             section("Why: the explanation of each step", explain, section_id="explanations"),
+            *_missing_section(d, what),
             section("Fitted values", fitted_values_block(d), section_id="values"),
             *(final or [section("Residual tests (the final model)", residual_tests_block(j["residual_tests"]),
                                 section_id="residual-tests")]),
@@ -502,6 +503,16 @@ def diagnosis_page(report, plant_file: str | Path | None = None, data_file: str 
     if j.get("timing"):
         body.append(section("Timing", timing_block(j["timing"]), section_id="timing-section"))
     return page(f"diagnose: {what}", "Which physical effect is the model missing?", body)
+
+
+def _missing_section(d, what: str) -> list[str]:
+    """The torque the model misses, when the ladder ended above the record's noise."""
+    if d.missing is None:
+        return []
+    from .missing import missing_torque_figure
+    return [section("The torque the model misses", f"<p>{esc(d.missing.sentence())}.</p>",
+                    figure(missing_torque_figure(d.missing, what), "the final model's residual as a torque at "
+                           "the output, against position, speed and time"), section_id="missing-torque")]
 
 
 # ---------------------------------------------------------------------- fit
