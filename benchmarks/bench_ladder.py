@@ -15,7 +15,8 @@ core loaded from numba's disk cache):
   ``gearbench import emps``), closed loop, from the bare plant with its mass free and no
   calibration, as ``studies.emps``'s whole-library ladder.
 
-Targets: 60 s for each 16 s record, 30 s for the 4 s one, 300 s for EMPS.  ``--python`` and ``--pythonpath``
+Each record's row keeps the diagnosis' own ``timing`` block (per stage and per candidate: wall
+time, replays, solver steps, fits).  Targets: 60 s for each 16 s record, 30 s for the 4 s one, 300 s for EMPS.  ``--python`` and ``--pythonpath``
 run the same commands with another interpreter or another checkout's ``gearbench`` (the
 figure of the code before a change, measured in the same session); ``--label`` names that
 run in ``results/bench.json`` (``ladder_<label>``).  A diagnosis still running after
@@ -119,7 +120,7 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
         return row
     j = json.loads(p.stdout)
     row.update(status="ok", verdict=j["verdict"], noise_floor=j["noise_floor"], reason=j["reason"],
-               stopped=j.get("stopped"),
+               stopped=j.get("stopped"), timing=j.get("timing"),
                ladder=[{"effect": s["effect"], "action": s.get("action", "add"), "options": s.get("options", {}),
                         "params": s["params"], "stderr": s["stderr"], "error": s["error"]} for s in j["ladder"]])
     return row
