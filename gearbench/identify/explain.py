@@ -26,7 +26,42 @@ def rung_text(ctx: Context, rung: Rung, number: int) -> str:
         return (evidence_text(ctx.replay, ctx.scorer, rung.before, rung.best)
                 + f" Fitted jointly with {joint.pair.first.candidate.label()} (the pair's rung before).")
     text = evidence_text(ctx.replay, ctx.scorer, rung.before, rung.best, rung.tried)
+    text += rivals_text(rivals(ctx, rung))
     return text if joint is None else text + " " + pair_text(joint)
+
+
+AMBIGUOUS_BIC = 10.0
+"""A rival within this BIC of a rung's candidate is one the record does not tell apart from it: a BIC
+difference under 10 is not "very strong" evidence (Kass and Raftery 1995, section 3.2)."""
+
+
+def rivals(ctx: Context, rung: Rung) -> list[dict]:
+    """The other candidates of ``rung``'s screen that pay too and whose BIC is within
+    :data:`AMBIGUOUS_BIC` of the chosen one's (both screen fits, the model before held): the effects or
+    places this record cannot tell apart from it, best first, each ``{effect, options, params, error,
+    bic_difference}``."""
+    if rung.action != "add" or rung.best is None:
+        return []
+    chosen = rung.best.candidate
+    own = [t.result.bic for t in rung.tried if t.ok and t.candidate == chosen]
+    if not own:
+        return []
+    out = [{"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
+            "error": t.result.error, "bic_difference": t.result.bic - own[0]}
+           for t in rung.tried if t.ok and t.candidate != chosen and ctx.policy.pays(rung.before, t.result)
+           and t.result.bic - own[0] < AMBIGUOUS_BIC]
+    return sorted(out, key=lambda r: r["bic_difference"])
+
+
+def rivals_text(found: list[dict]) -> str:
+    """The sentence a rung gains when its record cannot tell its effect from others, else ''."""
+    if not found:
+        return ""
+    names = "; ".join(f"{r['effect']}{' ' + str(r['options']) if r['options'] else ''} (BIC "
+                      f"{r['bic_difference']:+.1f}, " + ", ".join(f"{k} = {v:.4g}" for k, v in r["params"].items())
+                      + ")" for r in found)
+    return (f" This record does not tell it apart from {names}: a BIC difference under {AMBIGUOUS_BIC:g} is no "
+            "strong evidence either way: on what this record measures they act alike.")
 
 
 def removal_text(ctx: Context, rung: Rung, number: int) -> str:

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 from ..plant.components import Plant
 from .candidates import RANKING, Tried
-from .explain import not_driven, reason, rung_text, simplified_text
+from .explain import not_driven, reason, rivals, rung_text, simplified_text
 from .fit import FitResult
 from .scoring import Scorer
 from .ladder import CalibrationStep, Context, State, correlated
@@ -38,6 +38,7 @@ class Step:
     explanation: str = ""
     action: str = "add"     # "add", or "remove": an effect of an earlier rung that no longer pays
     correlations: list = field(default_factory=list)  # strongly correlated estimates (see _correlated)
+    rivals: list = field(default_factory=list)  # candidates the record does not tell apart (explain.rivals)
 
 
 @dataclass
@@ -180,7 +181,7 @@ def step_json(s) -> dict:
             "params": s.params, "stderr": s.stderr, "error": s.error,
             "relative_error_pct": s.relative_error_pct, "model": s.model,
             "plant_params": s.plant_params, "explanation": s.explanation,
-            "correlations": s.correlations}
+            "correlations": s.correlations, "rivals": s.rivals}
 
 
 def residual_test_json(t) -> dict:
@@ -230,7 +231,7 @@ def steps(ctx: Context, state: State) -> list[Step]:
     for r, text, (effect, params) in zip(state.rungs, texts, shown):
         res = r.result
         out.append(Step(effect, r.options, params, r.stderr, res.error, ctx.scorer.relative_pct(res.sim), res.bic,
-                        r.model, r.plant_params, text, r.action, r.correlations))
+                        r.model, r.plant_params, text, r.action, r.correlations, rivals(ctx, r)))
     return out
 
 
