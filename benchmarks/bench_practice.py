@@ -10,7 +10,8 @@ from the command's start to its exit, and scored against its ``truth.yaml``:
 * ``verdict_right``: the ladder's effects are the hidden ones (none for a null case);
 * ``params``: per hidden parameter the fitted value and its relative error (``clearance_deg``
   against ``backlash_deg``, ``rest_angle`` in rad against ``rest_angle_deg``);
-* ``end_over_true_noise``: the model's end (the last rung's error, else the baseline's) over the
+* ``end_over_true_noise``: the model's end (the last rung's error, or the calibration's when it came
+  last, else the baseline's) over the
   record's true noise on the error signal (``true_noise``, else ``noise_sigma``);
 * ``timing``: the diagnosis' own breakdown (``diagnose --json``'s ``timing``).
 
@@ -78,7 +79,12 @@ def score(truth: dict, report: dict) -> dict:
                 None if got is None or true == 0 else abs(got - true) / abs(true))}
     noise = truth.get("true_noise") or truth.get("noise_sigma") or {}
     signal = report["error_signal"]
-    end = kept[-1]["error"] if kept else report["baseline_error"]
+    # the final model's error: the last rung's (a removal's is the model after it), or the calibration's
+    # when that came after the last rung
+    cal = report.get("calibration_step")
+    end = report["ladder"][-1]["error"] if report["ladder"] else report["baseline_error"]
+    if cal and cal["after_step"] >= len(report["ladder"]):
+        end = cal["error"]
     return {"expected": sorted(h["effect"] for h in hidden), "found": found,
             "verdict_right": found == sorted(h["effect"] for h in hidden), "params": params,
             "error_signal": signal, "end": end, "true_noise": noise.get(signal),
