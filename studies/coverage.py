@@ -121,8 +121,14 @@ def rms_z(rows: list[dict], key: str) -> dict[str, float]:
                                         for r in rows]))) for n in names}
 
 
-def run(excitation: str, rho: float, seeds: int = SEEDS) -> dict:
-    rows = [one(s, rho, excitation) for s in range(seeds)]
+def run(excitation: str, rho: float, seeds: int = SEEDS, workers: int | None = 1) -> dict:
+    """:func:`one` over ``seeds`` seeds (0, 1, ...) on ``workers`` processes (None: every core); each
+    fit is the same wherever it runs."""
+    from functools import partial
+
+    from gearbench.identify.executor import Executor
+    with Executor(workers) as here:
+        rows = here.map(partial(one, rho=rho, excitation=excitation), list(range(seeds)))
     return {"excitation": excitation, "noise": "white" if rho == 0 else f"AR(1) rho {rho:g}",
             "rho": rho, "seeds": seeds, "converged": sum(r["converged"] for r in rows),
             "coverage": coverage(rows, "stderr"), "coverage_white_formula": coverage(rows, "stderr_white"),
@@ -192,7 +198,7 @@ def main(results_dir: Path, seeds: int) -> None:
     cases = []
     for excitation in ("steps", "mixed"):
         for rho in (0.0, RHO):
-            c = run(excitation, rho, seeds)
+            c = run(excitation, rho, seeds, workers=None)
             cases.append(c)
             click.echo(f"{excitation}, {c['noise']}: coverage "
                        + ", ".join(f"{n} {v:.0%}" for n, v in c["coverage"].items())

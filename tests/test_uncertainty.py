@@ -60,8 +60,9 @@ def test_fit_coverage(rho):
     """``studies.coverage`` on the steps records: over 60 seeds the truth lies within +-2 reported
     standard errors in >= 90 % of fits for each of the five parameters (stick-slip Coulomb
     torque, spring stiffness and rest angle, viscous coefficient, motor resistance); the white
-    formula fails on AR(1) noise.  About 35 s per noise type on a free core (fits ~0.5 s each)."""
-    c = C.run("steps", rho, C.SEEDS)
+    formula fails on AR(1) noise.  About 35 s per noise type on a free core (fits ~0.5 s each), on two
+    processes."""
+    c = C.run("steps", rho, C.SEEDS, workers=2)
     assert c["converged"] == C.SEEDS
     low = {n: v for n, v in c["coverage"].items() if v < 0.9}
     assert not low, f"coverage below 90 %: {low} (rms z {c['rms_z']})"
