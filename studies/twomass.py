@@ -339,7 +339,7 @@ def ladder_figure(diag: dict, stated: dict, path: Path) -> None:
     ax = fig.subplots()
     labels = [r["effect"] if not r["action"] or r["action"] == "add" else f"- {r['effect']}" for r in diag["rungs"]]
     errs = [r["error_deg"] for r in diag["rungs"]]
-    labels.append("+ coupling from the FRF\n(stated, refitted)")
+    labels.append("coupling stated from the FRF")
     errs.append(stated["error_deg"])
     ax.bar(range(len(errs)), errs, color=["tab:blue"] * (len(errs) - 1) + ["tab:orange"])
     ax.axhline(diag["noise_floor_deg"], color="r", lw=1, label=f"noise floor {diag['noise_floor_deg']:.2g} deg")
@@ -348,6 +348,7 @@ def ladder_figure(diag: dict, stated: dict, path: Path) -> None:
     ax.set_ylabel("error (deg, diagnose's metric)")
     ax.set_title("Two-mass bench: the diagnosis' error per rung (record A, one period)")
     ax.legend(fontsize=8)
+    fig.subplots_adjust(bottom=0.18)
     save_figure_atomic(fig, path)
 
 
@@ -367,7 +368,9 @@ def markdown(r: dict) -> str:
           f"| source (read off its figure, +-{SOURCE_READING_HZ:g} Hz) | {src['antiresonance_hz']} | "
           f"{src['resonance_hz']} | {src['resonance_hz']} |",
           f"| record A | {_fmt(rec['antiresonance_hz'])} | {_fmt(rec['resonance_hz'])} | "
-          f"{_fmt(rec['load_resonance_hz'])} |"]
+          f"{_fmt(rec['load_resonance_hz'])} |",
+          f"| record B ({r['record_features_B']['df_hz']:g} Hz grid) | {_fmt(r['record_features_B']['antiresonance_hz'])} | "
+          f"{_fmt(r['record_features_B']['resonance_hz'])} | {_fmt(r['record_features_B']['load_resonance_hz'])} |"]
     for name, feat in r["model_features"].items():
         und = feat["undamped"]
         extra = "" if und is None else (f" (undamped {und['antiresonance_hz']:.4g} / {und['resonance_hz']:.4g})")
@@ -448,6 +451,8 @@ def run_study(data_dir=None, workers: int | None = 1) -> dict:
     recs = load_records(data_dir)
     frf = record_frf(recs["A"])
     rec_feat = frf_features(frf["f_hz"], frf["motor"], frf["load"])
+    frf_b = record_frf(recs["B"])
+    rec_feat_b = {**frf_features(frf_b["f_hz"], frf_b["motor"], frf_b["load"]), "df_hz": frf_b["df_hz"]}
     fit_data = cut(recs["A"], FIT_SLICE_S, f"record A, {FIT_SLICE_S[0]:g}-{FIT_SLICE_S[1]:g} s")
     val_data = cut(recs["B"], VALIDATION_SLICE_S, f"record B, {VALIDATION_SLICE_S[0]:g}-{VALIDATION_SLICE_S[1]:g} s")
     diag = diagnosis(fit_data, workers)
@@ -456,7 +461,7 @@ def run_study(data_dir=None, workers: int | None = 1) -> dict:
     stated = stated_coupling(diag["plant"], fit_data, frf)
     stated["validation_error_deg"] = score(stated["plant"], val_data)["error_deg"]
     models = {"diagnose's final model": diag["plant"], "coupling stated (from the FRF, refitted)": stated["plant"]}
-    r = {"source": dict(SOURCE), "record_features": rec_feat, "frf_df_hz": frf["df_hz"],
+    r = {"source": dict(SOURCE), "record_features": rec_feat, "record_features_B": rec_feat_b, "frf_df_hz": frf["df_hz"],
          "frf_periods": frf["periods"], "frf_lines": int(len(frf["f_hz"])),
          "diagnosis": diag, "stated": stated,
          "model_features": {k: model_features(p) for k, p in models.items()}}
@@ -479,7 +484,7 @@ def to_json(r: dict) -> dict:
     s = {k: v for k, v in r["stated"].items() if k not in ("plant", "start_plant")}
     s["model"] = plant_summary(r["stated"]["plant"])
     return {"command": COMMAND, "citation": TWOMASS_CITATION, "source": r["source"],
-            "record_features": r["record_features"], "frf_df_hz": r["frf_df_hz"], "frf_periods": r["frf_periods"],
+            "record_features": r["record_features"], "record_features_B": r["record_features_B"], "frf_df_hz": r["frf_df_hz"], "frf_periods": r["frf_periods"],
             "frf_lines": r["frf_lines"], "fit_slice_s": FIT_SLICE_S, "validation_slice_s": VALIDATION_SLICE_S,
             "window_s": WINDOW_S, "candidates": CANDIDATES, "diagnosis": d, "stated": s,
             "model_features": r["model_features"], "findings": r["findings"], "wall_s": r["wall_s"]}
