@@ -55,6 +55,7 @@ from gearbench.measure.data import Measurement, from_arrays, read_measurement
 from gearbench.plant.components import Plant
 from gearbench.plant.effects import AddedEffect
 from gearbench.report.io import save_figure_atomic, write_text_atomic
+from studies.emps import plant_from_model
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA_DIR = REPO / "data" / "twomass"
@@ -258,15 +259,6 @@ def score(plant: Plant, m: Measurement) -> dict:
             "noise_floor_deg": {k: float(rp.noise_floor(k)) for k in m.signals}}
 
 
-def plant_from_step(model, plant_params, bare: Plant) -> Plant:
-    p = bare
-    for path, v in plant_params.items():
-        section, key = path.split(".")
-        p = replace(p, **{section: replace(getattr(p, section), **{key: float(v)})})
-    return replace(p, effects=tuple(AddedEffect(e["type"], {k: v for k, v in e.items() if k != "type"})
-                                    for e in model))
-
-
 def diagnosis(fit_data: Measurement, workers: int | None = 1) -> dict:
     """diagnose's ladder from the bare plant on ``fit_data`` (see the module docstring)."""
     bare = bare_plant()
@@ -279,7 +271,7 @@ def diagnosis(fit_data: Measurement, workers: int | None = 1) -> dict:
     for st in d.ladder:
         rungs.append({"effect": st.effect, "action": st.action, "error_deg": float(st.error),
                       "params": {k: float(v) for k, v in st.params.items() if not isinstance(v, str)},
-                      "plant": plant_from_step(st.model, st.plant_params, bare)})
+                      "plant": plant_from_model(st.model, st.plant_params, bare)})
     return {"verdict": d.verdict, "stopped": d.stopped, "reason": d.reason, "noise_floor_deg": float(d.noise_floor),
             "baseline_error_deg": float(d.baseline_error), "rungs": rungs, "plant": d.plant, "wall_s": wall,
             "final_over_noise": float(rungs[-1]["error_deg"] / d.noise_floor)}
