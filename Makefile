@@ -1,6 +1,7 @@
 # gearbench: two commands set everything up on a fresh machine.
 #   make run   - create .venv, install, reproduce Table I, the gain scans, the tutorial's
-#                diagnosis, the EMPS study, the standard errors' coverage and the tuning study into results/
+#                diagnosis, the EMPS study, the standard errors' coverage, the tuning study and the two-mass
+#                bench study into results/
 #   make test  - create .venv, install with test extras, run the test suite
 #   make test-all - the same with the slow tests too (the 10,000-input fuzz, every hidden-effect
 #                case on its 16 s record)
@@ -43,6 +44,7 @@ run: install
 	$(BIN)/python -m studies.emps --results results
 	$(BIN)/python -m studies.coverage --results results
 	$(BIN)/python -m studies.tuning --results results
+	$(BIN)/python -m studies.twomass --results results
 
 test: install-test
 	$(BIN)/python -m pytest -q

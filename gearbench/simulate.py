@@ -381,15 +381,19 @@ def mesh_figures(plant: Plant) -> tuple[float, float | None]:
     """``(k, f)``: the mesh stiffness (N m/rad) and the engaged mesh mode's frequency (Hz).
 
     ``f`` is the damped oscillatory mode in which the mesh deflection takes part most
-    (:func:`gearbench.plant.linear.plant_info`); for an overdamped mesh, the undamped
+    (:func:`gearbench.plant.linear.plant_info`'s rule, with the plant's own drive); for an overdamped mesh, the undamped
     ``sqrt(k (1/Jl + 1/(Jm N^2))) / 2 pi`` (``Jm`` with the pinion, ``Jl`` the output
     inertia); None if neither can be computed.
     """
-    from .plant.linear import plant_info  # late: scipy's eigen-solver, needed for failed runs only
+    from .plant.linear import _mode_of, _oscillatory  # late: scipy's eigen-solver, for failed runs only
 
     k = float(plant.gear.mesh_stiffness)
     try:
-        f = plant_info(plant)["mesh_frequency_hz"]
+        # the engaged modes of the plant as driven: a torque- or force-driven plant has no
+        # electrics (``plant_info``'s figures are a DC motor's; a torque drive's failed run raised
+        # TypeError here, on its resistance None)
+        mesh = _mode_of(_oscillatory(plant, electrics=plant.drive == "voltage"), "delta")
+        f = mesh["frequency_hz"] if mesh else None
         if f is None:
             jm = plant.motor.inertia + (plant.shaft.pinion_inertia if plant.shaft is not None else 0.0)
             f = math.sqrt(k * (1.0 / plant.output_inertia + 1.0 / (jm * plant.gear.ratio ** 2))) / (2 * math.pi)

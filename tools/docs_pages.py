@@ -40,6 +40,8 @@ FIGURES = (
     "results/emps/train_force.png",
     "results/emps/validation_force_zoom.png",
     "results/emps/validation_acceleration_edge.png",
+    "results/twomass/frf.png",
+    "results/twomass/ladder.png",
     "results/validation/convergence.png",
     "results/compare_bench_rig_bench_rig_hidden/residual_tests.png",
 )

@@ -405,13 +405,18 @@ class _Trials:
             self.failures.append(str(exc))
             # a solver failure is a very bad fit, not a crash of the fit
             return np.full(self.size or 1, 1e6)
+        except ValueError as exc:
+            # free parameters that together make no plant (a shaft's pinion_inertia above a free
+            # motor.inertia it is taken out of): as bad as a failed solve, so the step backs off
+            self.failures.append(f"no plant at these values: {exc}")
+            return np.full(self.size or 1, 1e6)
 
     def settle(self, z) -> tuple[tuple[int, ...], float]:
         """The seams the replay resets at ``z`` by its own rule, and the RSS there."""
         try:
             run = self.replay.run(set_values(self.plant, self.frees, z * self.scales))
             w = self.scorer.weighted(run)
-        except ReplayError as exc:
+        except (ReplayError, ValueError) as exc:
             self.failures.append(str(exc))
             return (), math.inf
         return run.seams, float(w @ w)

@@ -12,6 +12,13 @@ window's start the angle states are moved by the model's drift, measured minus
 simulated position over the previous window's last samples fitted by a straight
 line (so the reset does not carry one sample's noise), when that drift is
 significant; the speeds, current and mesh state run on from the previous window.
+Opt-in, ``Replay(reset_speeds=True)`` also sets the speeds at every seam to the
+measured ones (a local quadratic fit of the measured angles around the seam,
+:data:`RESET_SPEED_HALF` samples either side): for a record whose low frequencies
+are not excited (a multisine on a current-driven machine, ``studies/twomass.py``)
+the speed error a window carries over from the last drifts the angles far more
+than the dynamics in the window, and the windows then compare the model on what
+the record excites.
 A run returns where it moved them with its columns (:class:`ReplayRun`); the replay itself
 is frozen, so one run's resets cannot be read as another's.
 
@@ -54,6 +61,10 @@ million, and with the solver's own budget (20 million steps a run) each such rep
 failing."""
 MAX_STEP_S = 1e-3
 """A replay's largest solver step, s."""
+RESET_SPEED_HALF = 5
+"""``reset_speeds``: samples either side of a seam in the local quadratic fit of a measured angle
+that gives its speed (11 samples: 4.4 ms at 2.5 kHz, a third of the period of the two-mass bench's
+77 Hz mode, so the fit follows it)."""
 
 
 @dataclass
@@ -153,7 +164,9 @@ class Replay:
     (None: in closed loop, whose records are cut from a running machine); noise_std: the
     measurement noise's standard deviation of some compared columns, each in its column's
     unit, where it is known (a record of the machine at rest, a sensor's datasheet): it is
-    their noise floor (:meth:`noise_floor`) and the least drift a window's reset acts on.
+    their noise floor (:meth:`noise_floor`) and the least drift a window's reset acts on;
+    reset_speeds: at every window seam also set the model's speeds to the measured ones
+    (:meth:`_reset_speeds`; open loop with more than one window only; off by default).
 
     Frozen: a run returns what it found (:class:`ReplayRun`) and sets nothing here.  Equal and
     hashed by identity (it holds the record's arrays).  ``meter``: what counts each run and fit
@@ -166,6 +179,7 @@ class Replay:
     options: SolverOptions = field(default_factory=solver_options)
     start_moving: bool | None = None
     noise_std: dict | None = None
+    reset_speeds: bool = False
     t0: float = field(init=False, repr=False)
     t: np.ndarray = field(init=False, repr=False)
     _windows: dict = field(init=False, repr=False, default_factory=dict)  # "found": windows(), once
@@ -329,6 +343,29 @@ class Replay:
             x[L.X_THM] += plant.gear.ratio * drift
         return move
 
+    def _reset_speeds(self, x: np.ndarray, a: int, plant: Plant) -> None:
+        """Set the speed states at sample ``a`` to the measured ones (``reset_speeds``): each measured
+        angle's slope at ``a`` by a local quadratic fit over :data:`RESET_SPEED_HALF` samples either
+        side.  The rotor's speed from the motor's angle (else from the load's), the load's (and on a
+        rigid gear the pinion's) from the load's angle (else from the motor's); a shaft's pinion
+        speed on a compliant gear from the motor's.  The angles are moved as without it
+        (:meth:`_reset_angles`)."""
+        n = plant.gear.ratio
+        rates = {}
+        for name in ("motor_angle_deg", "motor_position_mm", "load_angle_deg", "load_position_mm"):
+            if name in self.data.signals and name.split("_")[0] not in rates:
+                th = S.to_output_rad(name, self.data.signals[name], plant)
+                rates[name.split("_")[0]] = local_fit(self.t, th, a, RESET_SPEED_HALF, 2)[1]
+        if not rates:
+            return
+        wl_motor = rates.get("motor", rates.get("load"))   # output rad/s
+        wl_load = rates.get("load", rates.get("motor"))
+        x[L.X_WM] = n * wl_motor
+        x[L.X_WL] = wl_load
+        shaft = plant.resolved().shaft is not None
+        rigid = plant.gear.rigid
+        x[L.X_WP] = n * (wl_load if (shaft and rigid) else wl_motor) if shaft else n * wl_motor
+
     # ---------------------------------------------------------------- run
     def pack(self, plant: Plant) -> np.ndarray:
         p = pack_plant(plant)
@@ -434,6 +471,8 @@ class Replay:
         for a, b in windows:
             if a > 0 and self._reset_angles(x, a, plant, solved.outs[-1], motion, held):
                 solved.moved.append(a)
+            if a > 0 and self.reset_speeds:
+                self._reset_speeds(x, a, plant)
             segs = self._segments(plant, a, b)
             t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
             times = self.t[a:b] - self.t[a]
