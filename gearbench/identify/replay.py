@@ -363,8 +363,7 @@ class Replay:
         x[L.X_WM] = n * wl_motor
         x[L.X_WL] = wl_load
         shaft = plant.resolved().shaft is not None
-        rigid = plant.gear.rigid
-        x[L.X_WP] = n * (wl_load if (shaft and rigid) else wl_motor) if shaft else n * wl_motor
+        x[L.X_WP] = n * (wl_load if shaft and plant.gear.rigid else wl_motor)
 
     # ---------------------------------------------------------------- run
     def pack(self, plant: Plant) -> np.ndarray:
