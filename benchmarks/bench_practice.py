@@ -7,8 +7,9 @@ quantized encoders, an offset, no load angle, 250 Hz): the long records the benc
 data.csv --json`` in a fresh process (the compiled core loaded from numba's disk cache), timed
 from the command's start to its exit, and scored against its ``truth.yaml``:
 
-* ``verdict_right``: the ladder's effects are the hidden ones (none for a null case);
-* ``params``: per hidden parameter the fitted value and its relative error (``clearance_deg``
+* ``verdict_right``: the final model's effects are the hidden ones (none for a null case);
+* ``params``: per hidden parameter the final model's value (the last rung's refitted model) and
+  its relative error (``clearance_deg``
   against ``backlash_deg``, ``rest_angle`` in rad against ``rest_angle_deg``);
 * ``end_over_true_noise``: the model's end (the last rung's error, or the calibration's when it came
   last, else the baseline's) over the
@@ -65,16 +66,14 @@ def expected(truth: dict) -> list[dict]:
 def score(truth: dict, report: dict) -> dict:
     """The diagnosis against the truth: verdict, parameters, the model's end over the true noise."""
     hidden = expected(truth)
-    added = [s for s in report["ladder"] if s.get("action", "add") == "add"]
-    removed = {s["effect"] for s in report["ladder"] if s.get("action") == "remove"}
-    kept = [s for s in added if s["effect"] not in removed]
-    found = sorted(s["effect"] for s in kept)
+    final = report["ladder"][-1]["model"] if report["ladder"] else []  # the final model, refitted
+    found = sorted(e["type"] for e in final)
     params = {}
     for h in hidden:
-        step = next((s for s in kept if s["effect"] == h["effect"]
-                     and h["location"] in (None, s.get("options", {}).get("location"))), None)
+        e = next((e for e in final if e["type"] == h["effect"] and h["location"] in (None, e.get("location"))),
+                 None)
         for key, true in h["params"].items():
-            got = None if step is None else step["params"].get(key)
+            got = None if e is None else e.get(key)
             params[f"{h['effect']}.{key}"] = {"true": true, "fitted": got, "relative_error": (
                 None if got is None or true == 0 else abs(got - true) / abs(true))}
     noise = truth.get("true_noise") or truth.get("noise_sigma") or {}
@@ -112,6 +111,9 @@ def run_case(name: str, python: str, pythonpath: str | None, timeout: float, out
             "reason": report["reason"], **score(truth, report),
             "ladder": [{"effect": s["effect"], "action": s.get("action", "add"), "params": s["params"],
                         "error": s["error"]} for s in report["ladder"]],
+            "final_model": report["ladder"][-1]["model"] if report["ladder"] else [],
+            "calibration": {k: {"file": c["nominal"], "value": c["value"], "status": c["status"]}
+                            for k, c in report.get("calibration", {}).items()},
             "timing": report.get("timing")}
 
 
