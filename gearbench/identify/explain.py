@@ -40,8 +40,8 @@ def rivals(ctx: Context, rung: Rung) -> list[dict]:
     :data:`AMBIGUOUS_BIC` of the chosen one's (both screen fits, the model before held): the effects or
     places this record cannot tell apart from it, best first, each ``{effect, options, params, error,
     bic_difference}``."""
-    if rung.action != "add" or rung.best is None:
-        return []
+    if rung.action != "add" or rung.best is None or (rung.joint is not None and not rung.joint.first):
+        return []  # a pair's second rung was not chosen from its screen
     chosen = rung.best.candidate
     own = [t.result.bic for t in rung.tried if t.ok and t.candidate == chosen]
     if not own:
@@ -61,7 +61,7 @@ def rivals_text(found: list[dict]) -> str:
                       f"{r['bic_difference']:+.1f}, " + ", ".join(f"{k} = {v:.4g}" for k, v in r["params"].items())
                       + ")" for r in found)
     return (f" This record does not tell it apart from {names}: a BIC difference under {AMBIGUOUS_BIC:g} is no "
-            "strong evidence either way: on what this record measures they act alike.")
+            "strong evidence either way; on what this record measures, they act alike.")
 
 
 def removal_text(ctx: Context, rung: Rung, number: int) -> str:
