@@ -80,16 +80,21 @@ def steps_csv(tmp_path_factory):
     return out
 
 
+def diagnose_json(data, only: str, results) -> dict:
+    """``gearbench diagnose`` of the bench rig against ``data`` trying ``only``, its ``--json`` object."""
+    plant = DATA.parent / "experiments" / "plants" / "bench_rig.yaml"
+    r = CliRunner().invoke(main, ["diagnose", str(plant), str(data), "--only", only, "--no-calibrate", "--json",
+                                  "--results", str(results)])
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output)
+
+
 def test_diagnose_that_ends_above_its_noise_shows_the_missing_torque(steps_csv, tmp_path):
     """Only a sensor delay to try against a hidden friction: nothing pays, the ladder ends far above
     the noise, and the report says what the torque it misses looks like, in the JSON, the Markdown, a
     figure and the HTML page.  (A torque effect would take part of the friction and leave a residual
     of another shape: a viscous term leaves one that resembles speed.)"""
-    plant = DATA.parent / "experiments" / "plants" / "bench_rig.yaml"
-    r = CliRunner().invoke(main, ["diagnose", str(plant), str(steps_csv), "--only", "sensor_delay",
-                                  "--no-calibrate", "--json", "--results", str(tmp_path)])
-    assert r.exit_code == 0, r.output
-    j = json.loads(r.output)
+    j = diagnose_json(steps_csv, "sensor_delay", tmp_path)
     assert j["stopped"] == "nothing pays" and j["verdict"] is None
     assert j["baseline_error"] > 2 * j["noise_floor"]
     m = j["missing_torque"]
@@ -103,10 +108,6 @@ def test_diagnose_that_ends_above_its_noise_shows_the_missing_torque(steps_csv, 
 
 
 def test_a_diagnosis_at_its_noise_has_no_missing_torque(steps_csv, tmp_path):
-    plant = DATA.parent / "experiments" / "plants" / "bench_rig.yaml"
-    r = CliRunner().invoke(main, ["diagnose", str(plant), str(steps_csv), "--only", "coulomb_friction",
-                                  "--no-calibrate", "--json", "--results", str(tmp_path)])
-    assert r.exit_code == 0, r.output
-    j = json.loads(r.output)
+    j = diagnose_json(steps_csv, "coulomb_friction", tmp_path)
     assert j["verdict"] == "coulomb_friction" and j["missing_torque"] is None
     assert not list(tmp_path.glob("diagnose_*/missing_torque.png"))
