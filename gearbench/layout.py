@@ -127,8 +127,8 @@ N_OUT = 9
 
 # ---- run statistics: the solver's (solver.integrate.S_*), then the model's
 from .solver.integrate import (N_SOLVER_STATS, S_EVENTS, S_FEVALS, S_REJECTED, S_STATUS,  # noqa: E402,F401
-                               S_STEPS, S_T_FAIL, STATUS_MAX_STEPS, STATUS_NONFINITE, STATUS_OK,
-                               STATUS_STEP_TOO_SMALL, METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK)
+                               S_STEPS, S_T_FAIL, STATUS_CHATTER, STATUS_MAX_STEPS, STATUS_NONFINITE,
+                               STATUS_OK, STATUS_STEP_TOO_SMALL, METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK)
 
 S_IAE = N_SOLVER_STATS + 0      # rad s
 S_ISE = N_SOLVER_STATS + 1      # rad^2 s
@@ -144,4 +144,5 @@ STATUS_TEXT = {
     STATUS_STEP_TOO_SMALL: "step size fell below the round-off limit",
     STATUS_MAX_STEPS: "step budget exhausted",
     STATUS_NONFINITE: "state became non-finite",
+    STATUS_CHATTER: "modes switched back and forth without time advancing",
 }

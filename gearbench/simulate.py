@@ -462,6 +462,10 @@ def failure_message(run: RunResult, name: str, plant: Plant | None = None) -> st
                                  "(check mesh_stiffness/mesh_damping against the inertias, and the gains)",
         L.STATUS_MAX_STEPS: _budget_hint(run),
         L.STATUS_NONFINITE: "the state blew up: an unstable gain or a non-physical parameter",
+        L.STATUS_CHATTER: (f"{int(run.stats[L.S_EVENTS])} mode switches and {int(run.stats[L.S_STEPS])} steps: "
+                           "a contact or a stuck body switching at zero force (teeth touching without "
+                           "clearance, stick-slip friction against a stiff shaft); check the clearance, "
+                           "the friction and the stiffnesses"),
     }.get(status, "")
     name = run.label or name
     return f"run {name!r} failed at t = {t:.6g} s: {run.status}; likely cause: {hint}"

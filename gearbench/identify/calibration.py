@@ -46,12 +46,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..blas import single_threaded
 from ..errors import ReplayError
 from ..plant.components import FITTABLE, Plant
-from .fit import Free, get_value, param_value, set_values
+from .fit import FitResult, Free, fit, get_value, param_value, set_values
 from .scoring import Scorer
 from .replay import Replay
 from . import search
+from .timing import Cost, timed
 from .uncertainty import central_jacobian, correlation, standard_errors
 
 DATASHEET_TOLERANCE_PCT = {
@@ -194,7 +196,7 @@ def _bound(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], calibrated: int,
-           n: int | None = None) -> list[np.ndarray]:
+           n: int | None = None, workers=None, spent=None) -> list[np.ndarray]:
     """Where a calibration's local fit starts again when the one from the current values
     stopped short of the noise: the ``search.LOCAL_STARTS`` best of ``n`` (default
     ``search.point_count``) scrambled Sobol points spread uniformly over the tolerance box of
@@ -202,8 +204,24 @@ def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], cali
 
     Why: stick-slip makes the residual jump between branches as the values move (whether the
     load sticks at a reversal), and a local fit from a datasheet's values can end in the wrong
-    one (module docstring of ``tests/test_datasheet.py``)."""
+    one (module docstring of ``tests/test_datasheet.py``).  ``workers``: an
+    :class:`~gearbench.identify.executor.Executor` the scan's points are spread over
+    (:func:`search.scan_on`, each chunk's cost given to ``spent``); without it, here."""
     low, high = (np.array([getattr(f, side) for f in frees[:calibrated]]) for side in ("low", "high"))
     points = search.around([get_value(plant, f) for f in frees],
                            low + search.unit_points(calibrated, n) * (high - low))
-    return [x for _, x in search.scan(replay, scorer, plant, frees, points)[:search.LOCAL_STARTS]]
+    ranked = (search.scan(replay, scorer, plant, frees, points) if workers is None
+              else search.scan_on(workers, replay, scorer, plant, frees, points, spent))
+    return [x for _, x in ranked[:search.LOCAL_STARTS]]
+
+
+@single_threaded
+def fit_from(job) -> tuple[FitResult, Cost]:
+    """A calibration's fit from one of :func:`starts`' points, as one job tuple ``(replay, scorer,
+    plant, frees, start, restarts)`` (what an :class:`~gearbench.identify.executor.Executor` maps):
+    central differences, ``restarts`` as ``fit``'s; with what it cost where it ran."""
+    replay, scorer, plant, frees, start, restarts = job
+    spent = Cost()
+    with timed(spent):
+        res = fit(replay.metered(spent), plant, frees, scorer, start=start, central=True, restarts=restarts)
+    return res, spent

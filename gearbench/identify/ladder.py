@@ -24,7 +24,7 @@ from ..plant.effects import AddedEffect
 from . import calibration
 from .candidates import Pair, Trial, Tried, candidates, fit_each, pair_jobs, rank, run_jobs, run_pair
 from .executor import Executor
-from .fit import FitResult, Free, fit, get_value, plant_frees
+from .fit import FitResult, Free, get_value, plant_frees
 from .scoring import Scorer
 from .policy import Policy
 from .progress import Tracker
@@ -390,11 +390,12 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     """The datasheet values ``ctx.plan.frees`` fitted with ``free_plant`` and the effects numbered
     ``added`` (``refit``, central differences, restarts), from the model's values; where that
     pays (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors,
-    also from the best points of a scan of the tolerance box (``calibration.starts``), the best
-    fit kept.  On 8 s of the bench rig with p04's datasheet errors and Coulomb friction hidden at
-    the load, fitted with the friction: from the file's values 25.9x the noise floors (load
-    inertia 0.00545 kg m^2 for 0.006), from the scan's best points 2.07x, the truth 0.99x; in the
-    ladder, after a pair with a load spring, 0.988x (``tests/test_datasheet.py``)."""
+    also from the best points of a scan of the tolerance box (``calibration.starts``), fitted where
+    ``ctx.workers`` runs them (in parallel), the best fit kept.  On 8 s of the bench rig with p04's
+    datasheet errors and Coulomb friction hidden at the load, fitted with the friction: from the
+    file's values 25.9x the noise floors (load inertia 0.00545 kg m^2 for 0.006), from the scan's
+    best points 2.07x, the truth 0.99x; in the ladder, after a pair with a load spring, 0.988x
+    (``tests/test_datasheet.py``)."""
     replay, scorer, policy, model = ctx.replay, ctx.scorer, ctx.policy, res.plant
     cal_frees: list[Free] = ctx.plan.frees
     cal = refit(replay, scorer, model, tuple(free_plant) + tuple(cal_frees), added, central=True,
@@ -402,8 +403,13 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     if cal is None or policy.explained(cal) or not policy.accepts(scorer, res, cal):
         return cal
     frees = frees_of(replay, model, tuple(cal_frees) + tuple(free_plant), added)
-    fits = [fit(replay, model, frees, scorer, start=list(x), central=True, restarts=policy.calibration_restarts)
-            for x in calibration.starts(replay, scorer, model, frees, len(cal_frees))]
+    jobs = [(replay, scorer, model, frees, list(x), policy.calibration_restarts)
+            for x in calibration.starts(replay, scorer, model, frees, len(cal_frees), workers=ctx.workers,
+                                        spent=ctx.tracker.timing.add_here)]
+    fits = []
+    for res, spent in ctx.workers.map(calibration.fit_from, jobs):
+        ctx.tracker.timing.add_here(spent)
+        fits.append(res)
     return best_fit([cal] + [f for f in fits if f.converged])
 
 

@@ -16,7 +16,8 @@ clipped to its bounds, with both signs (the first half of ``q``'s range negative
 when its lower bound is negative.  ``n`` is ``POINTS_PER_PARAM`` per parameter,
 rounded up to a power of two (Sobol's balance property), plus the given start
 (the typical values, or a previous fit's).  A point whose replay fails is skipped.
-The local fit then starts from the ``LOCAL_STARTS`` best points.
+The local fit then starts from the ``LOCAL_STARTS`` best points, less those within :data:`NEAR` of
+a better one in every scanned coordinate of the unit cube: two starts that close end in one basin.
 """
 from __future__ import annotations
 
@@ -29,12 +30,18 @@ from ..errors import ReplayError
 from .fit import Free, set_values
 from .scoring import Scorer
 from .replay import Replay
+from .timing import Cost, timed
 
 SPAN = (0.01, 10.0)     # multiples of the typical value scanned
 POINTS_PER_PARAM = 8    # Sobol points per scanned parameter (rounded up to a power of two)
 LOCAL_STARTS = 2        # local fits from the best points: from the best one alone, the cogging
                         # example's fit (tests/test_user_effects.py) stopped on xtol beside its
                         # optimum at 18.7x the noise floor; the second best reached 0.97x
+NEAR = 0.5 / POINTS_PER_PARAM
+"""Unit-cube distance (the largest over the scanned coordinates) below which a start is not fitted
+from when a better one is: half a stratum of the scan.  On practice record p03 the two best points
+of a Coulomb friction's scan lay 0.013 apart (3.6 and 4.0 mN m); both fits, 50 replays each, ended at
+4.9e-5 N m."""
 SEED = 20260416         # the scramble's seed: fixed, so a diagnosis is reproducible
 
 
@@ -55,6 +62,29 @@ def to_coordinates(q: np.ndarray, frees: list[Free]) -> np.ndarray:
             u = np.where(u < 0.5, 2.0 * u, 2.0 * u - 1.0)
         out[:, j] = np.clip(sign * f.scale * SPAN[0] * ratio ** u, f.low, f.high)
     return out
+
+
+def to_unit(x: np.ndarray, frees: list[Free]) -> np.ndarray:
+    """The unit-cube point of fit coordinates ``x`` (one per free), the inverse of :func:`to_coordinates`
+    (outside ``[0, 1)`` where the value lies outside the scanned span)."""
+    out = np.empty(len(frees))
+    for j, f in enumerate(frees):
+        v = float(x[j])
+        q = math.log(max(abs(v), 1e-300) / (f.scale * SPAN[0])) / math.log(SPAN[1] / SPAN[0])
+        out[j] = (q if v < 0.0 else q + 1.0) / 2.0 if f.low < 0.0 else q
+    return out
+
+
+def distinct(points: list[np.ndarray], frees: list[Free], count: int) -> list[np.ndarray]:
+    """The first ``count`` of ``points`` (best first), less each within :data:`NEAR` of a better one
+    in every one of ``frees``' coordinates (the first columns)."""
+    kept, units = [], []
+    for x in points[:count]:
+        u = to_unit(x, frees)
+        if all(np.max(np.abs(u - v)) >= NEAR for v in units):
+            kept.append(x)
+            units.append(u)
+    return kept
 
 
 def unit_points(k: int, n: int | None = None, seed: int = SEED) -> np.ndarray:
@@ -92,6 +122,35 @@ def scan(replay: Replay, scorer: Scorer, plant, frees: list[Free], points) -> li
     return out
 
 
+def scan_chunk(job) -> tuple[list[tuple[float, np.ndarray]], Cost]:
+    """:func:`scan` of one job tuple ``(replay, scorer, plant, frees, points)`` (what an
+    :class:`~gearbench.identify.executor.Executor` maps), with what it cost where it ran."""
+    replay, scorer, plant, frees, points = job
+    spent = Cost()
+    with timed(spent):
+        out = scan(replay.metered(spent), scorer, plant, frees, points)
+    return out, spent
+
+
+SCAN_CHUNK = 8
+"""Points per job of a scan spread over workers (:func:`scan_on`)."""
+
+
+def scan_on(workers, replay: Replay, scorer: Scorer, plant, frees: list[Free], points,
+            spent=None) -> list[tuple[float, np.ndarray]]:
+    """:func:`scan`, its points in chunks of :data:`SCAN_CHUNK` where ``workers`` (an
+    :class:`~gearbench.identify.executor.Executor`) runs them; each chunk's cost is given to
+    ``spent`` (a callable), the same ranking as :func:`scan`'s (a stable sort of the same list)."""
+    chunks = [points[i:i + SCAN_CHUNK] for i in range(0, len(points), SCAN_CHUNK)]
+    out = []
+    for part, cost in workers.map(scan_chunk, [(replay, scorer, plant, frees, c) for c in chunks]):
+        out += part
+        if spent is not None:
+            spent(cost)
+    out.sort(key=lambda c: c[0])
+    return out
+
+
 def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: int, start,
            n: int | None = None) -> tuple[list[np.ndarray], int]:
     """Where the local fits start, best first, and the number of replays the scan cost.
@@ -101,5 +160,5 @@ def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: in
     start = np.asarray(start, dtype=float)
     pts = sobol_points(frees[:scanned], n) if scanned else np.empty((0, 0))
     points = [start] + list(around(start, pts))
-    ranked = scan(replay, scorer, plant, frees, points)
-    return [x for _, x in ranked[:LOCAL_STARTS]] or [start], len(points)
+    ranked = [x for _, x in scan(replay, scorer, plant, frees, points)]
+    return distinct(ranked, frees[:scanned], LOCAL_STARTS) or [start], len(points)

@@ -117,6 +117,11 @@ class Timing:
         self.stages.setdefault(stage, Cost()).add(cost, wall=False)
         self.candidates.setdefault(effect, Cost()).add(cost)
 
+    def add_here(self, cost: Cost | None) -> None:
+        """A fit made elsewhere for the stage in progress (a calibration's start): its counts to that
+        stage (its wall time is the stage's own clock)."""
+        self._now().add(cost, wall=False)
+
     def wall_s(self) -> float:
         return self.clock() - self.t0
 
