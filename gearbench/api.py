@@ -553,10 +553,12 @@ def run_experiment(experiment: Experiment | str | Path, *, workers: int | None =
 # ------------------------------------------------------ models against data
 
 def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float, where: str,
-            noise_std: Mapping | None = None, noise_from: Any = None, gaps: str | None = None):
+            noise_std: Mapping | None = None, noise_from: Any = None, gaps: str | None = None,
+            reset_speeds: bool = False):
     """Plant, record and replay, every argument checked before any solving (the CLI's ``_setup``
     reads the files, then comes here).  ``gaps``: what to do with missing samples (``load_measurement``);
-    without it a record missing rows from its time grid is refused (``measure.gaps.check_grid``)."""
+    without it a record missing rows from its time grid is refused (``measure.gaps.check_grid``).
+    ``reset_speeds``: ``Replay(reset_speeds=)``."""
     from .control.sampled import SampledPV
     from .experiment.controller_file import load_controller
     from .identify.replay import Replay, solver_options, stated_noise
@@ -575,10 +577,15 @@ def _replay(plant: Any, data: Any, controller: Any, window_s: float, rtol: float
     if noise_std is not None and not isinstance(noise_std, Mapping):
         problems.append(f"noise_std must be a mapping {{column: standard deviation in its unit}}, got "
                         f"{show(noise_std)}")
+    if not isinstance(reset_speeds, bool):
+        problems.append(f"reset_speeds must be True or False, got {show(reset_speeds)}")
+    elif reset_speeds and (controller is not None or not window_s):
+        problems.append("reset_speeds sets the speeds at the seams of an open-loop replay's windows: it needs "
+                        "no controller and window_s > 0 s")
     _raise(where, problems)
     rest = None if noise_from is None else load_measurement(noise_from)
     replay = Replay(data, controller, window_s or None, solver_options(rtol),
-                    noise_std=stated_noise(data, controller is not None, noise_std, rest))
+                    noise_std=stated_noise(data, controller is not None, noise_std, rest), reset_speeds=reset_speeds)
     replay.check(plant)
     return plant, data, replay
 
@@ -714,7 +721,7 @@ class Comparison:
 def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
             controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
             noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
-            gaps: str | None = None) -> Comparison:
+            gaps: str | None = None, reset_speeds: bool = False) -> Comparison:
     """Drive the model as the record was driven and measure where it fails.
 
     Parameters
@@ -750,6 +757,12 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
         :func:`load_measurement` and :mod:`gearbench.measure.gaps`): interpolate up to
         5 in a row, or drop rows at the record's ends.  Default: refuse the record,
         naming the first missing sample.  The JSON's ``gaps`` says how many and where.
+    reset_speeds : bool
+        Open loop: at every window seam also set the model's speeds to the measured
+        ones (a local quadratic fit of the measured angles; as ``--reset-speeds``), not
+        only its angles.  For a record whose low frequencies are not excited (a
+        multisine on a current-driven machine), where a window's speed error carried
+        into the next drifts the angles more than the dynamics move them.  Default off.
 
     Returns
     -------
@@ -775,7 +788,8 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
     """
     from .identify.compare import comparison
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std, noise_from, gaps)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "compare", noise_std, noise_from, gaps,
+                                  reset_speeds)
     return Comparison(plant, data, replay.closed_loop, comparison(replay, plant), replay.t, label or plant.name)
 
 
@@ -927,7 +941,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
              workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
              time_limit_s: float | None = None, progress=None,
              noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
-             gaps: str | None = None) -> DiagnosisReport:
+             gaps: str | None = None, reset_speeds: bool = False) -> DiagnosisReport:
     """Which physical effect is the model missing?  Fit each, rank by BIC, climb the ladder.
 
     Parameters
@@ -948,6 +962,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         A record of the machine at rest, as in :func:`compare`.
     gaps : {'interpolate', 'drop'}, optional
         Missing samples, as in :func:`compare`.
+    reset_speeds : bool
+        Set the model's speeds too at every window seam, as in :func:`compare`.
     free : sequence of str
         Plant parameters refitted with every candidate, e.g. ``("leadscrew.mass",)``.
     only : sequence of str
@@ -1001,7 +1017,8 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     """
     _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from, gaps)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from, gaps,
+                                  reset_speeds)
     report = _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
                               progress)
     report.plant_label = label or plant.name
@@ -1186,7 +1203,7 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         refit: bool = False, controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
         max_evals: int | None = None, calibrate: bool = False, scheduler: str | None = None,
         noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
-        gaps: str | None = None) -> FitReport:
+        gaps: str | None = None, reset_speeds: bool = False) -> FitReport:
     """Add an effect to a plant and fit its parameters (and ``free`` plant parameters) to a record.
 
     Without a ``location`` in ``options`` every place the effect may act is
@@ -1220,6 +1237,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         A record of the machine at rest, as in :func:`compare`.
     gaps : {'interpolate', 'drop'}, optional
         Missing samples, as in :func:`compare`.
+    reset_speeds : bool
+        Set the model's speeds too at every window seam, as in :func:`compare`.
     max_evals : int, optional
         Most simulations the least-squares fit may spend (default 40 per parameter + 40).
     calibrate : bool
@@ -1273,7 +1292,8 @@ def fit(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | M
         problems += unknown_effects([effect], "effect")
     _raise(where, problems)
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
-    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from, gaps)
+    plant, data, replay = _replay(plant, data, controller, window_s, rtol, where, noise_std, noise_from, gaps,
+                                  reset_speeds)
     try:
         report = fit_report(plant, replay, effect, options, start, free, refit, max_evals, bool(calibrate), scheduler)
         report.plant_label = label or plant.name

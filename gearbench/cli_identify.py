@@ -52,10 +52,24 @@ _gaps = click.option(
          "the record, naming the first missing sample.")
 
 
+def _remember_reset_speeds(ctx, param, value):
+    ctx.meta["gearbench.reset_speeds"] = value
+    return value
+
+
+_reset_speeds = click.option(
+    "--reset-speeds", is_flag=True, default=False, expose_value=False, callback=_remember_reset_speeds,
+    help="Open loop: at every window seam set the model's speeds to the measured ones too (a local quadratic "
+         "fit of the measured angles), not only its angles.  For a record whose low frequencies are not "
+         "excited (a multisine on a current-driven machine), where a window's speed error carried into the "
+         "next drifts the angles more than the dynamics move them (docs: the two-mass bench).")
+
+
 def common(f):
     from .cli_import import column_options  # --columns/--units/--columns-file: read by _setup
     f = column_options(expose=False)(f)
     f = _gaps(f)  # read by _setup from the context, like the column options
+    f = _reset_speeds(f)
     for deco in reversed(_common):
         f = deco(f)
     return f
@@ -79,7 +93,7 @@ def _setup(plant_file, data_file, controller_file, window_s, rtol, noise=(), noi
     controller = load_controller(controller_file) if controller_file else None
     rest = None if noise_from is None else read_measurement(noise_from, context_column_map())
     return _replay(plant, data, controller, window_s, rtol, str(data_file), parse_noise(noise, positive=True), rest,
-                   gaps)
+                   gaps, click.get_current_context().meta.get("gearbench.reset_speeds", False))
 
 
 def _errors():

@@ -406,3 +406,20 @@ def test_the_next_rung_screened_during_the_pairs_ends_them_at_the_noise_floors()
     assert len(pairs) == Policy().pair_batch < pairs[0].total, (len(pairs), pairs[0].total)
     assert [(e.step, e.stage) for e in events if e.done == 0 and e.stage == "candidates"] == [
         (1, "candidates"), (2, "candidates")]
+
+
+def test_unit_coordinates_invert_the_scan_and_near_starts_are_one():
+    """``search.to_unit`` is the inverse of the scan's map (a signed parameter too), and of two starts
+    within ``NEAR`` of each other in every scanned coordinate only the better is fitted from; starts
+    apart in any one coordinate are both kept."""
+    frees = [Free("torque", 0, 0.0, 1e6, 0.2, "N m"), Free("rest_angle", 0, -10.0, 10.0, 0.5, "rad")]
+    q = search.unit_points(2, 16)
+    x = search.to_coordinates(q, frees)
+    for qi, xi in zip(q, x):
+        assert search.to_unit(xi, frees) == pytest.approx(qi, abs=1e-12)
+    best = search.to_coordinates(np.array([[0.40, 0.70]]), frees)[0]
+    near = search.to_coordinates(np.array([[0.40 + 0.9 * search.NEAR, 0.70 - 0.9 * search.NEAR]]), frees)[0]
+    apart = search.to_coordinates(np.array([[0.40 + 0.2 * search.NEAR, 0.70 - 1.1 * search.NEAR]]), frees)[0]
+    assert [list(p) for p in search.distinct([best, near], frees, 2)] == [list(best)]
+    assert [list(p) for p in search.distinct([best, apart], frees, 2)] == [list(best), list(apart)]
+    assert len(search.distinct([best, apart, near], frees, 2)) == 2   # only the best two are looked at

@@ -170,3 +170,27 @@ def test_the_generated_model_meets_the_contract():
     model = compiled_model()
     assert missing(model) == [] and len(NAMES) == 25
     assert model.args is model  # its effects' sums are its own args
+
+
+def test_modes_switching_in_place_stop_the_run_with_their_cause():
+    """A shaft of 0.37 N m/rad on a rotor of a sixth of the motor's inertia, on practice case p03's gear
+    without clearance: at t = 7.058 s its modes switch back and forth without an accepted step (a
+    diagnosis' shaft fit met such points 40 times, each running 1.6-2.5 million switches to the step
+    budget).  The run stops after ``CHATTER_EVENTS`` switches in place and says so, where, and why."""
+    import re
+    from gearbench.errors import ReplayError
+    from gearbench.experiment.files import load_plant
+    from gearbench.identify.replay import Replay
+    from gearbench.measure.data import read_measurement
+    from gearbench.plant.effects import AddedEffect
+    from gearbench.solver.integrate import CHATTER_EVENTS
+    case = Path(__file__).parent.parent / "data" / "cases" / "p03"
+    plant = load_plant(case / "nominal.yaml").with_effects(AddedEffect(
+        "shaft_compliance", {"stiffness": 0.36645614606178184, "damping": 0.0047240869823510275,
+                             "pinion_inertia": 1.336340347129278e-06}))
+    with pytest.raises(ReplayError, match="modes switched back and forth without time advancing") as err:
+        Replay(read_measurement(case / "data.csv")).run(plant)
+    message = str(err.value)
+    assert "failed at t = 7.058 s" in message
+    switches, steps = (int(v) for v in re.search(r"(\d+) mode switches and (\d+) steps", message).groups())
+    assert steps > 0 and CHATTER_EVENTS < switches < 2 * CHATTER_EVENTS   # not the millions of the budget

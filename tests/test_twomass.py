@@ -5,6 +5,7 @@ The source's anti-resonance and resonance (52.4 and 76.6 Hz) are read off its FR
 +-1 Hz (``SOURCE_READING_HZ``); a record's own estimate sits on its grid of excited lines (1 Hz for
 record A, 4 Hz for record B), so each comparison allows the grid's spacing plus that reading.
 """
+import json
 import math
 from dataclasses import replace
 
@@ -166,6 +167,37 @@ def test_reset_speeds_is_what_keeps_a_window_from_carrying_a_speed_error():
     e_off, e_on = Scorer(off).error(off.run(plant)), Scorer(on).error(on.run(plant))
     # within a 0.1 s window the missing 3 rad/s^2 moves the angle 0.5*3*0.1^2 rad = 0.86 deg at most
     assert e_on < 1.0 < e_off
+
+
+def test_reset_speeds_from_the_api_and_the_command_line(tmp_path):
+    """``reset_speeds`` (``--reset-speeds``) reaches the replay from ``gb.compare`` and ``gearbench
+    compare``: the same record and plant as above, the error within the 0.86 deg a window allows with
+    it and above it without; a value that is not a bool, or a replay without windows, is refused by name."""
+    import gearbench as gb
+    from gearbench.cli import main
+    from gearbench.errors import ConfigError
+    import yaml
+    from gearbench.experiment.writer import plant_to_dict
+    from gearbench.measure.data import write_measurement
+    t, m = _parabola(acc=3.0)
+    plant = replace(T.bare_plant(), motor=replace(T.bare_plant().motor, inertia=1.0))
+    e = {flag: gb.compare(plant, m, window_s=0.1, reset_speeds=flag).to_pandas().loc["motor_angle_deg", "rms_error"]
+         for flag in (False, True)}
+    assert e[True] < 1.0 < e[False]
+    with pytest.raises(ConfigError, match="reset_speeds must be True or False"):
+        gb.compare(plant, m, window_s=0.1, reset_speeds="yes")
+    with pytest.raises(ConfigError, match="window_s > 0"):
+        gb.compare(plant, m, window_s=0.0, reset_speeds=True)
+    plant_file, data_file = tmp_path / "plant.yaml", tmp_path / "data.csv"
+    plant_file.write_text(yaml.safe_dump(plant_to_dict(plant)))
+    write_measurement(m, data_file)
+    cli = {}
+    for flag in ([], ["--reset-speeds"]):
+        res = CliRunner().invoke(main, ["compare", str(plant_file), str(data_file), "--window", "0.1", "--json",
+                                        "--results", str(tmp_path / "r")] + flag)
+        assert res.exit_code == 0, res.output
+        cli[bool(flag)] = json.loads(res.output)["signals"][0]["rms_error"]
+    assert cli == pytest.approx(e, rel=1e-6)   # the CSV holds 10 significant digits
 
 
 def test_a_fit_trial_at_values_that_make_no_plant_is_a_bad_point_not_a_crash():
