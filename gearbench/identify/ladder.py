@@ -407,9 +407,9 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
             for x in calibration.starts(replay, scorer, model, frees, len(cal_frees), workers=ctx.workers,
                                         spent=ctx.tracker.timing.add_here)]
     fits = []
-    for res, spent in ctx.workers.map(calibration.fit_from, jobs):
+    for got, spent in ctx.workers.map(calibration.fit_from, jobs):
         ctx.tracker.timing.add_here(spent)
-        fits.append(res)
+        fits.append(got)
     return best_fit([cal] + [f for f in fits if f.converged])
 
 
