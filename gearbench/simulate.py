@@ -464,8 +464,8 @@ def failure_message(run: RunResult, name: str, plant: Plant | None = None) -> st
         L.STATUS_NONFINITE: "the state blew up: an unstable gain or a non-physical parameter",
         L.STATUS_CHATTER: (f"{int(run.stats[L.S_EVENTS])} mode switches and {int(run.stats[L.S_STEPS])} steps: "
                            "a contact or a stuck body switching at zero force (teeth touching without "
-                           "clearance, stick-slip friction against a stiff shaft); check the clearance, "
-                           "the friction and the stiffnesses"),
+                           "clearance, stick-slip friction); check the clearance, the friction and the "
+                           "stiffnesses"),
     }.get(status, "")
     name = run.label or name
     return f"run {name!r} failed at t = {t:.6g} s: {run.status}; likely cause: {hint}"
