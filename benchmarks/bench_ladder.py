@@ -20,10 +20,12 @@ time, replays, solver steps, fits).  Targets: 60 s for each 16 s record, 30 s fo
 run the same commands with another interpreter or another checkout's ``gearbench`` (the
 figure of the code before a change, measured in the same session); ``--label`` names that
 run in ``results/bench.json`` (``ladder_<label>``).  A diagnosis still running after
-``--timeout`` seconds is stopped and recorded as such.
+``--timeout`` seconds is stopped and recorded as such.  ``--only`` measures some records again
+and keeps the stored row's others; each record says when it was measured and at which commit.
 
     python benchmarks/bench_ladder.py                   # this checkout -> bench.json "ladder"
     python benchmarks/bench_ladder.py --pythonpath ../before --label before
+    python benchmarks/bench_ladder.py --only two_4s     # one record again, the others kept
 """
 from __future__ import annotations
 
@@ -134,23 +136,25 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
               help="Only these records.")
 @click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
 def main(python, pythonpath, label, names, timeout):
-    from bench_store import merge
-    names = names or tuple(RECORDS) + tuple(EMPS)
+    from bench_store import PATH, merge
     check_imported(python, pythonpath)
-    rows = {}
+    key = f"ladder_{label}" if label else "ladder"
+    code = Path(pythonpath).resolve() if pythonpath else REPO
+    commit = subprocess.run(["git", "-C", str(code), "describe", "--always", "--dirty"], capture_output=True,
+                            text=True).stdout.strip() or None
+    # --only measures some records again: the others' rows stay as they were (each says when and what)
+    rows = dict(json.loads(PATH.read_text()).get(key, {}).get("records", {})) if names and PATH.exists() else {}
+    names = names or tuple(RECORDS) + tuple(EMPS)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name in names:
             data = make_record(name, tmp)
-            rows[name] = run_one(name, data, python, pythonpath, timeout, tmp / "results")
-            r = rows[name]
+            rows[name] = r = run_one(name, data, python, pythonpath, timeout, tmp / "results")
+            r["measured"], r["commit"] = time.strftime("%Y-%m-%d %H:%M"), commit
             print(f"{name}: {r['status']}, {r['wall_s'] and round(r['wall_s'], 1)} s; verdict {r.get('verdict')}; "
                   + " -> ".join(f"{'-' if s['action'] == 'remove' else ''}{s['effect']} {s['error']:.4g}"
                                 for s in r.get("ladder", [])), flush=True)
-    code = Path(pythonpath).resolve() if pythonpath else REPO
-    commit = subprocess.run(["git", "-C", str(code), "describe", "--always", "--dirty"], capture_output=True,
-                            text=True).stdout.strip() or None
-    merge({f"ladder_{label}" if label else "ladder": {
+    merge({key: {
         "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),
         "commit": commit, "other_checkout": bool(pythonpath), "records": rows}})
 
