@@ -136,14 +136,12 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
               help="Only these records.")
 @click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
 def main(python, pythonpath, label, names, timeout):
-    from bench_store import PATH, merge
+    from bench_store import commit_of, merge, stored
     check_imported(python, pythonpath)
     key = f"ladder_{label}" if label else "ladder"
-    code = Path(pythonpath).resolve() if pythonpath else REPO
-    commit = subprocess.run(["git", "-C", str(code), "describe", "--always", "--dirty"], capture_output=True,
-                            text=True).stdout.strip() or None
+    commit = commit_of(Path(pythonpath).resolve() if pythonpath else REPO)
     # --only measures some records again: the others' rows stay as they were (each says when and what)
-    rows = dict(json.loads(PATH.read_text()).get(key, {}).get("records", {})) if names and PATH.exists() else {}
+    rows = stored(key, "records") if names else {}
     names = names or tuple(RECORDS) + tuple(EMPS)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

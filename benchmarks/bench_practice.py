@@ -133,11 +133,11 @@ def summary(rows: dict) -> dict:
 @click.option("--only", "names", multiple=True, type=click.Choice(NAMES), help="Only these cases.")
 @click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
 def main(python, pythonpath, label, names, timeout):
-    from bench_store import PATH, merge
+    from bench_store import commit_of, merge, stored
     check_imported(python, pythonpath)
     key = f"practice_{label}" if label else "practice"
     # --only measures some cases again: the others' rows stay as they were
-    rows = dict(json.loads(PATH.read_text()).get(key, {}).get("cases", {})) if names and PATH.exists() else {}
+    rows = stored(key, "cases") if names else {}
     with tempfile.TemporaryDirectory() as tmp:
         for name in names or NAMES:
             rows[name] = r = run_case(name, python, pythonpath, timeout, Path(tmp))
@@ -145,11 +145,9 @@ def main(python, pythonpath, label, names, timeout):
             print(f"{name}: {r['status']}, {r['wall_s'] and round(r['wall_s'], 1)} s (load {r['load_before']:.1f}); "
                   f"found {r.get('found')} expected {r.get('expected')}; end/true noise "
                   f"{r.get('end_over_true_noise') and round(r['end_over_true_noise'], 2)}", flush=True)
-    code = Path(pythonpath).resolve() if pythonpath else REPO
-    commit = subprocess.run(["git", "-C", str(code), "describe", "--always", "--dirty"], capture_output=True,
-                            text=True).stdout.strip() or None
     merge({key: {
-        "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(), "commit": commit,
+        "measured": time.strftime("%Y-%m-%d %H:%M"), "cpu_count": os.cpu_count(),
+        "commit": commit_of(Path(pythonpath).resolve() if pythonpath else REPO),
         "other_checkout": bool(pythonpath), "summary": summary(rows), "cases": rows}})
 
 

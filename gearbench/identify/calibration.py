@@ -53,7 +53,7 @@ from .fit import FitResult, Free, fit, get_value, param_value, set_values
 from .scoring import Scorer
 from .replay import Replay
 from . import search
-from .timing import Cost, timed
+from .timing import Cost, costed
 from .uncertainty import central_jacobian, correlation, standard_errors
 
 DATASHEET_TOLERANCE_PCT = {
@@ -221,7 +221,4 @@ def fit_from(job) -> tuple[FitResult, Cost]:
     plant, frees, start, restarts)`` (what an :class:`~gearbench.identify.executor.Executor` maps):
     central differences, ``restarts`` as ``fit``'s; with what it cost where it ran."""
     replay, scorer, plant, frees, start, restarts = job
-    spent = Cost()
-    with timed(spent):
-        res = fit(replay.metered(spent), plant, frees, scorer, start=start, central=True, restarts=restarts)
-    return res, spent
+    return costed(fit, replay, plant, frees, scorer, start=start, central=True, restarts=restarts)

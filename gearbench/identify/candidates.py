@@ -23,7 +23,7 @@ from .scoring import Scorer, signal_evidence
 from .refit import best_fit, frees_of
 from .replay import Replay
 from . import search
-from .timing import Cost, timed
+from .timing import Cost, costed
 
 RANKING = ("BIC of the noise-weighted residuals of every compared signal, n ln(RSS/n) + k ln n, "
            "lowest first; the places of one effect (location, signal) share the slots their BICs earn, in the "
@@ -181,9 +181,7 @@ class Trial:
 def try_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate, how: Trial = Trial()) -> Tried:
     """:func:`fit_candidate`, its cost (wall time, replays, solver steps, fits) measured here, in the
     process that fits it, and carried back on the result (``Tried.cost``)."""
-    spent = Cost()
-    with timed(spent):
-        tried = fit_candidate(replay.metered(spent), scorer, plant, cand, how)
+    tried, spent = costed(fit_candidate, replay, scorer, plant, cand, how)
     return replace(tried, cost=spent)
 
 
@@ -282,9 +280,7 @@ def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
              free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
     """:func:`fit_pair`, its cost measured where it runs and carried back (``Pair.cost``), as
     :func:`try_candidate`'s."""
-    spent = Cost()
-    with timed(spent):
-        pair = fit_pair(replay.metered(spent), scorer, plant, first, second, free_plant, refit)
+    pair, spent = costed(fit_pair, replay, scorer, plant, first, second, free_plant, refit)
     return replace(pair, cost=spent)
 
 

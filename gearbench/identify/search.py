@@ -30,7 +30,7 @@ from ..errors import ReplayError
 from .fit import Free, set_values
 from .scoring import Scorer
 from .replay import Replay
-from .timing import Cost, timed
+from .timing import Cost, costed
 
 SPAN = (0.01, 10.0)     # multiples of the typical value scanned
 POINTS_PER_PARAM = 8    # Sobol points per scanned parameter (rounded up to a power of two)
@@ -125,11 +125,7 @@ def scan(replay: Replay, scorer: Scorer, plant, frees: list[Free], points) -> li
 def scan_chunk(job) -> tuple[list[tuple[float, np.ndarray]], Cost]:
     """:func:`scan` of one job tuple ``(replay, scorer, plant, frees, points)`` (what an
     :class:`~gearbench.identify.executor.Executor` maps), with what it cost where it ran."""
-    replay, scorer, plant, frees, points = job
-    spent = Cost()
-    with timed(spent):
-        out = scan(replay.metered(spent), scorer, plant, frees, points)
-    return out, spent
+    return costed(scan, *job)
 
 
 SCAN_CHUNK = 8

@@ -65,6 +65,16 @@ def timed(cost: Cost, clock: Callable[[], float] = time.perf_counter) -> Iterato
         cost.wall_s += clock() - t0
 
 
+def costed(fn: Callable, replay, *args, **kwargs) -> tuple:
+    """``fn(replay, *args, **kwargs)`` with ``replay`` metered by a fresh :class:`Cost` (its replays,
+    steps and fits), and that cost with the call's wall time: what a job run on a worker carries
+    back to the diagnosis (``candidates.try_candidate``, ``search.scan_chunk``, ``calibration.fit_from``)."""
+    spent = Cost()
+    with timed(spent):
+        out = fn(replay.metered(spent), *args, **kwargs)
+    return out, spent
+
+
 class Timing:
     """A diagnosis's :class:`Cost` per stage (in the order they first came) and per candidate effect.
 
