@@ -937,7 +937,7 @@ class DiagnosisReport:
 
 def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame | Measurement, *,
              controller: str | Path | None = None, window_s: float = 1.0, rtol: float = 1e-6,
-             free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
+             free: Sequence[str] = (), only: Sequence[str] = (), also: Sequence[str] = (), max_steps: int = 4,
              workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
              time_limit_s: float | None = None, progress=None,
              noise_std: Mapping[str, float] | None = None, noise_from: Any = None,
@@ -968,6 +968,9 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
         Plant parameters refitted with every candidate, e.g. ``("leadscrew.mass",)``.
     only : sequence of str
         Try only these effects (a model structure).
+    also : sequence of str
+        Effects tried only when asked for (``lugre_friction``, ``winding_heating``: each
+        refines physics the library has, at a cost every record would pay) to try as well.
     max_steps : int
         Longest ladder.
     workers : int or None
@@ -999,7 +1002,7 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     Raises
     ------
     ConfigError, MeasurementError, ReplayError
-        As :func:`compare`; an unknown effect in ``only`` is named.
+        As :func:`compare`; an unknown effect in ``only`` or ``also`` is named.
     gearbench.errors.DiagnosisInterrupted
         On Ctrl-C during the ladder (a ``KeyboardInterrupt``): its ``diagnosis`` is the
         ladder so far.
@@ -1015,19 +1018,20 @@ def diagnose(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFram
     >>> d.verdict, d.unit
     ('coulomb_friction', 'deg')
     """
-    _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
+    _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only, also)
     label = Path(plant).name if isinstance(plant, (str, Path)) else ""
     plant, data, replay = _replay(plant, data, controller, window_s, rtol, "diagnose", noise_std, noise_from, gaps,
                                   reset_speeds)
     report = _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
-                              progress)
+                              progress, also)
     report.plant_label = label or plant.name
     return report
 
 
-def diagnose_replay(plant: Plant, replay, *, free: Sequence[str] = (), only: Sequence[str] = (), max_steps: int = 4,
-                    workers: int | None = 1, calibrate: bool = True, scheduler: str | None = None,
-                    time_limit_s: float | None = None, progress=None) -> DiagnosisReport:
+def diagnose_replay(plant: Plant, replay, *, free: Sequence[str] = (), only: Sequence[str] = (),
+                    also: Sequence[str] = (), max_steps: int = 4, workers: int | None = 1, calibrate: bool = True,
+                    scheduler: str | None = None, time_limit_s: float | None = None,
+                    progress=None) -> DiagnosisReport:
     """:func:`diagnose` of a plant and a replay already built (``identify.replay.Replay``, as
     ``gearbench diagnose`` builds it from its files and options), with the same checks.
 
@@ -1037,19 +1041,19 @@ def diagnose_replay(plant: Plant, replay, *, free: Sequence[str] = (), only: Seq
         The model.
     replay : gearbench.identify.replay.Replay
         The record and how to drive the model with it.
-    free, only, max_steps, workers, calibrate, scheduler, time_limit_s, progress
+    free, only, also, max_steps, workers, calibrate, scheduler, time_limit_s, progress
         As in :func:`diagnose`.
 
     Returns
     -------
     DiagnosisReport
     """
-    _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only)
+    _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only, also)
     return _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
-                            progress)
+                            progress, also)
 
 
-def _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only) -> None:
+def _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free, only, also) -> None:
     """:func:`diagnose`'s arguments checked, every problem named at once (``ConfigError``)."""
     from .identify.candidates import unknown_effects
     problems: list[str] = []
@@ -1061,23 +1065,23 @@ def _check_diagnose(max_steps, workers, time_limit_s, progress, scheduler, free,
     if progress is not None and not callable(progress):
         problems.append(f"progress must be callable, got {show(progress)}")
     _check_scheduler(scheduler, problems)
-    for key, seq in (("free", free), ("only", only)):
+    for key, seq in (("free", free), ("only", only), ("also", also)):
         if isinstance(seq, str) or not all(isinstance(s, str) for s in seq):
             problems.append(f"{key} must be a sequence of strings, got {show(seq)}")
     if not problems:
-        problems += unknown_effects(only, "only")
+        problems += unknown_effects(only, "only") + unknown_effects(also, "also")
     _raise("diagnose", problems)
 
 
 def _diagnose_replay(plant, replay, free, only, max_steps, workers, calibrate, scheduler, time_limit_s,
-                     progress) -> DiagnosisReport:
+                     progress, also) -> DiagnosisReport:
     from .identify.diagnose import diagnose as _diagnose
     from .identify.fit import Free
     for p in free:
         Free.plant(plant, p)  # a bad key is named before any solving
     return DiagnosisReport(_diagnose(plant, replay, tuple(free), int(max_steps), workers, only=tuple(only),
                                      calibrate=bool(calibrate), scheduler=scheduler, time_limit_s=time_limit_s,
-                                     progress=progress), replay, plant.name)
+                                     progress=progress, also=tuple(also)), replay, plant.name)
 
 
 @dataclass

@@ -201,6 +201,9 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
               help="A plant parameter refitted with every candidate and in the baseline (e.g. leadscrew.mass).")
 @click.option("--only", "only", default="", metavar="NAME,NAME",
               help="Try only these effects (a model structure), comma-separated.")
+@click.option("--also", "also", default="", metavar="NAME,NAME",
+              help="Try these effects as well, which are tried only when asked for (lugre_friction, "
+                   "winding_heating), comma-separated.")
 @click.option("--calibrate/--no-calibrate", default=True, show_default=True,
               help="Calibrate the plant's own datasheet values within their tolerances (the plant file's "
                    "'{value, tolerance_pct}', else 20 % on resistance, torque constant, inertias, dampings): "
@@ -235,12 +238,12 @@ def compare(plant_file, data_file, controller_file, window_s, rtol, noise, noise
                    "solver_steps: the integrator's accepted steps; fits: least-squares fits; a candidate's "
                    "wall_s is its own fits' time wherever they ran, pairs as \"a+b\"; docs/diagnose-json.md).")
 @_html_option("report.html beside the ladder figure")
-def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, calibrate,
+def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, free, only, also, calibrate,
              max_steps, time_limit_s, workers, scheduler, quiet, results, as_json, html_file):
     """Which physical effect is the model missing?
 
-    Fits every effect of the library that the plant lacks, in every place it
-    can act (a space-filling scan of its parameters, then local least squares),
+    Fits every effect of the library that the plant lacks (those tried only
+    when asked for, with --also), in every place it can act (a space-filling scan of its parameters, then local least squares),
     ranks them by the Bayesian information criterion (which charges
     for each added parameter, so an effect that does not help never wins;
     the places of one effect by the evidence of every signal),
@@ -267,10 +270,10 @@ def diagnose(plant_file, data_file, controller_file, window_s, rtol, noise, nois
     from .report.io import save_figure_atomic, write_text_atomic
     try:
         plant, data, replay = _setup(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from)
-        names = tuple(n.strip() for n in only.split(",") if n.strip())
+        names, extra = (tuple(n.strip() for n in arg.split(",") if n.strip()) for arg in (only, also))
         with _ladder_progress(disable=quiet or as_json) as show:
-            rep = diagnose_replay(plant, replay, free=free, only=names, max_steps=max_steps, workers=workers,
-                                  calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler,
+            rep = diagnose_replay(plant, replay, free=free, only=names, also=extra, max_steps=max_steps,
+                                  workers=workers, calibrate=calibrate, time_limit_s=time_limit_s, scheduler=scheduler,
                                   progress=show)
         d = rep.diagnosis
     except _errors() as exc:

@@ -18,7 +18,7 @@ from .interrupts import is_interrupt
 from .schema import Choice, Number, show
 from .control.controllers import Controller, pack_controller
 from .plant.components import Plant
-from .plant.effects.codegen import compiled_model
+from .plant.effects.codegen import compiled_model, needs_states
 from .plant.pack import pack_plant, rest_state, tolerance_scales
 
 METHODS = {"rosenbrock23": L.METHOD_ROSENBROCK, "ode23s": L.METHOD_ROSENBROCK,
@@ -332,13 +332,16 @@ def simulate_packed(p: np.ndarray, scales: np.ndarray, inputs: Segments, t_end: 
     if options.method not in METHODS:
         raise ValueError(f"unknown solver method {options.method!r}; choose one of {sorted(METHODS)}")
     scales = np.asarray(scales, dtype=float)
-    model = compiled_model()
     p = np.asarray(p, dtype=float)
+    model = compiled_model(needs_states(p))
     if len(p) > model.SIZE:
         raise ValueError(f"p has {len(p)} slots but the compiled model with the effects registered in this "
                          f"process has {model.SIZE}: pack the plant in the process that simulates it")
-    # a vector packed before an effect module was loaded lacks only that module's blocks (absent: 0)
+    # a vector packed before an effect module was loaded lacks only that module's blocks (absent: 0),
+    # and a state made so lacks the effects' own states (at 0; their scales are 1 then)
     p = np.concatenate((p, np.zeros(model.SIZE - len(p)))) if len(p) < model.SIZE else p.copy()
+    x0 = np.concatenate((x0, np.zeros(model.n_state - len(x0)))) if len(x0) < model.n_state else x0
+    scales = np.concatenate((scales, np.ones(model.n_state - len(scales))))
     p[L.P_SPEED_EPS] = SHIFT_SPEED_REL * scales[L.X_WM]
     p[L.P_FRIC_EPS_M] = options.friction_speed_rel * scales[L.X_WM]
     p[L.P_FRIC_EPS_L] = options.friction_speed_rel * scales[L.X_WL]

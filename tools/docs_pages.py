@@ -93,7 +93,10 @@ def _md(text: str) -> str:
 def _kind(effect: Effect) -> str:
     cls = type(effect)
     if effect.term is not None:
-        return "compiled: a term of the right-hand side, at " + ", ".join(f"`{p}`" for p in effect.places)
+        where = "compiled: a term of the right-hand side, at " + ", ".join(f"`{p}`" for p in effect.places)
+        if effect.state:
+            where += f", with a state of its own ({effect.state}); `diagnose` tries it only with `--also {effect.name}`"
+        return where
     if cls.apply is not Effect.apply:
         return "structural: it changes the plant itself"
     if cls.measure is not Effect.measure:

@@ -92,9 +92,16 @@ def as_tried(cand: Candidate, res: FitResult) -> Tried:
     return Tried(cand, res, *own_estimates(res, len(res.plant.effects) - 1))
 
 
-def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list[Candidate]:
-    """Every effect (of ``only``, if given), in every place, that the plant lacks
-    and that could act on this record.
+def asked(name: str, only: tuple[str, ...] = (), also: tuple[str, ...] = ()) -> bool:
+    """Whether effect ``name`` is to be tried: named in ``also``, or in ``only`` when it is given,
+    else when it is not tried only on request (``Effect.on_request``)."""
+    return name in also or (name in only if only else not REGISTRY[name].on_request)
+
+
+def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = (),
+               also: tuple[str, ...] = ()) -> list[Candidate]:
+    """Every effect (of ``only``, if given; of ``also`` too), in every place, that the plant lacks
+    and that could act on this record (:func:`asked`).
 
     On a rigid train (no clearance, no shaft) the motor and the load are one
     body, so friction there is tried once, at the load (the carriage).  In a
@@ -104,10 +111,10 @@ def candidates(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> list
     """
     have = {(e.name, tuple(sorted((k, v) for k, v in e.values.items() if k in e.effect.options)))
             for e in plant.effects}
-    skipped = not_tried(plant, replay, only)
+    skipped = not_tried(plant, replay, only, also)
     out = []
     for name, eff in sorted(REGISTRY.items()):
-        if (only and name not in only) or name in skipped:
+        if not asked(name, only, also) or name in skipped:
             continue
         for c in _places(plant, replay, eff):
             if (name, tuple(sorted(c.items()))) in have or any(e.name == name and not e.effect.options
@@ -135,16 +142,21 @@ def _places(plant: Plant, replay: Replay, eff) -> list[dict]:
     return choices
 
 
-def not_tried(plant: Plant, replay: Replay, only: tuple[str, ...] = ()) -> dict[str, str]:
+def not_tried(plant: Plant, replay: Replay, only: tuple[str, ...] = (),
+              also: tuple[str, ...] = ()) -> dict[str, str]:
     """The effects of the library (of ``only``, if given) that cannot act on this plant and record,
-    each with why (``Effect.inapplicable``; a sensor effect in a closed-loop replay)."""
+    or are tried only when named (``Effect.on_request``), each with why (``Effect.inapplicable``;
+    a sensor effect in a closed-loop replay)."""
     signals = list(replay.data.signals)
     resolved = plant.resolved()
     out = {}
     for name, eff in sorted(REGISTRY.items()):
-        if only and name not in only:
+        if only and name not in only + also:
             continue
-        if not eff.applicable(resolved, signals):
+        if not asked(name, only, also):
+            out[name] = (f"it is tried only when asked for (--also {name}): "
+                         f"{(type(eff).__doc__ or '').strip().splitlines()[0]}")
+        elif not eff.applicable(resolved, signals):
             out[name] = eff.inapplicable(resolved, signals) or "it does not apply to this plant"
         elif replay.closed_loop and eff.acts_on == "measured signal":
             out[name] = ("a sensor effect cannot change the controller's output, which a closed-loop "

@@ -79,7 +79,7 @@ from .results import Diagnosis, diagnosis
 def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max_steps: int = 4,
              workers: int | None = None, progress: Callable[[ProgressEvent], None] | None = None,
              only: tuple[str, ...] = (), calibrate: bool = True, time_limit_s: float | None = None,
-             scheduler: str | None = None, policy: Policy | None = None) -> Diagnosis:
+             scheduler: str | None = None, policy: Policy | None = None, also: tuple[str, ...] = ()) -> Diagnosis:
     """Diagnose ``plant`` against the replayed record and climb the ladder.
 
     Each rung fits every candidate with the effects added so far held (cheap),
@@ -91,7 +91,8 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     free_plant: plant parameters refitted with every candidate (and in the
     baseline), e.g. ``("leadscrew.mass",)``; workers: processes (default: all
     usable cores, ``gearbench.workers``); only: restrict the candidates to
-    these effect names (a model structure); calibrate: the plant's own
+    these effect names (a model structure); also: effects tried only on request
+    (``Effect.on_request``: LuGre friction, a warming winding) to try as well; calibrate: the plant's own
     datasheet values within their tolerances (``calibration.plan``) may be
     calibrated, once, as a step that competes with each rung's best effect by
     the criterion that adds an effect (``Policy.accepts``; the lower BIC wins), with
@@ -114,6 +115,7 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
     :class:`gearbench.workers.SchedulerError` before any fitting.
     """
     check_names(only)
+    check_names(also, "also")
     with Executor(workers, scheduler) as where:
         tracker = Tracker(progress)
         replay = replay.metered(tracker.timing)  # what runs here counts to the stage in progress
@@ -123,8 +125,8 @@ def diagnose(plant: Plant, replay: Replay, free_plant: tuple[str, ...] = (), max
             tracker.stage("calibration plan", 1)
         plan = calibration.plan(plant, replay, scorer) if calibrate else calibration.Plan()
         ctx = Context(replay, scorer, plant, plan, policy or Policy(), where, tracker, tuple(free_plant),
-                      tuple(only), max_steps, time_limit_s)
-        return _climb(ctx, State(base, refitted=tuple(free_plant)), base, not_tried(plant, replay, only))
+                      tuple(only), max_steps, time_limit_s, tuple(also))
+        return _climb(ctx, State(base, refitted=tuple(free_plant)), base, not_tried(plant, replay, only, also))
 
 
 def baseline(replay: Replay, scorer: Scorer, plant: Plant, free_plant, tracker: Tracker) -> FitResult:

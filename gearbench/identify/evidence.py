@@ -49,6 +49,8 @@ SIGNATURES = {
     "acceleration": ("torque", "a torque that follows the acceleration (a compliance: inertia "
                                "that lags behind the rotor)"),
     "voltage lost in a dead zone": ("torque", "a torque deficit at small voltages (an amplifier dead zone)"),
+    "heat put into the winding": ("torque", "a torque deficit that grows with the heat the current has put "
+                                            "into the winding, (integral of i^2 dt) i (a resistance warming up)"),
     "lost motion": ("signal", "lost motion each time the motion reverses (a clearance): the residual follows "
                               "the measured gap between the motor angle / N and the load angle"),
     "a lag": ("signal", "the measured signal lagging the model (a delay): the residual follows the "
@@ -153,7 +155,7 @@ class Evidence:
 
     def torque_features(self, tau: np.ndarray, mask: np.ndarray, cand, params: dict, plant) -> dict[str, float]:
         """|correlation| of the torque residual with each torque-view feature; with a candidate's
-        fitted parameters, the Stribeck curve and the dead zone's lost voltage too."""
+        fitted parameters, the Stribeck curve, the dead zone's lost voltage and a winding's heat too."""
         v, th = self.speed[mask], self.position[mask]
         tau = tau[mask]
         vmax = float(np.max(np.abs(v))) or 1.0
@@ -174,6 +176,12 @@ class Evidence:
         if thr and self.replay.data.input_name == "voltage_V":
             u = np.asarray(self.replay.data.input, dtype=float)[mask]
             out["voltage lost in a dead zone"] = _corr(tau, np.clip(u, -thr, thr))
+        if params.get("thermal_resistance"):
+            i = self.replay.data.signals.get("current_A", self.sim.get("current_A"))
+            if i is not None:
+                i = np.asarray(i, dtype=float)
+                heat = np.concatenate(([0.0], np.cumsum(0.5 * (i[1:] ** 2 + i[:-1] ** 2) * np.diff(self.t))))
+                out["heat put into the winding"] = _corr(tau, (heat * i)[mask])
         return out
 
     def signal_feature(self, signature: str, name: str, params: dict, plant) -> float | None:

@@ -48,6 +48,7 @@ class Context:
     only: tuple[str, ...] = ()
     max_steps: int = 4
     time_limit_s: float | None = None
+    also: tuple[str, ...] = ()  # effects tried only on request, asked for
 
     def added(self, plant: Plant) -> tuple[int, ...]:
         """The numbers of ``plant``'s effects that the ladder added."""
@@ -210,7 +211,7 @@ def screen(ctx: Context, res: FitResult, refitted: tuple, number: int) -> list[T
     (cheap), then the best ``joint_top`` refitted with them."""
     model = res.plant
     added = ctx.added(model)
-    cands = candidates(model, ctx.replay, ctx.only)
+    cands = candidates(model, ctx.replay, ctx.only, ctx.also)
     tried = rank(fit_each(ctx.replay, ctx.scorer, model, cands, ctx.workers,
                           ctx.tracker.stage("candidates", number, len(cands)),
                           Trial(free_plant=ctx.free_plant, rounds_below=res.rss)))

@@ -5,7 +5,7 @@ import numpy as np
 
 from .. import layout as L
 from .components import Plant
-from .effects.codegen import pack_effects, size
+from .effects.codegen import pack_effects, size, state_count, state_scales
 
 CONTACT_LAWS = {"dubowsky": L.LAW_DUBOWSKY, "elasto_backlash": L.LAW_ELASTO,
                 "linear": L.LAW_LINEAR}  # linear: unclipped, for validation only (not in plant files)
@@ -60,12 +60,14 @@ def tolerance_scales(plant: Plant) -> np.ndarray:
     torque (~1e-6 rad), not by the clearance: error control must see the
     contact's deflection, which sets the contact torque.
     """
+    base = plant
     plant = plant.resolved()
     m, g = plant.motor, plant.gear
     stall = plant.typical_torque
     w0 = plant.typical_speed
     h = max(g.half_clearance, 1e-4)
-    sc = np.empty(L.N_STATE)
+    sc = np.ones(state_count(base.effects))
+    state_scales(base.effects, plant, sc)
     sc[L.X_I] = m.max_voltage / m.resistance if plant.drive == "voltage" else 1.0
     sc[L.X_THM] = 1.0
     sc[L.X_WM] = w0
@@ -81,7 +83,8 @@ def tolerance_scales(plant: Plant) -> np.ndarray:
 
 
 def rest_state(plant: Plant, delta0: float = 0.0) -> np.ndarray:
-    """Everything at rest, the mesh at ``delta0`` inside its clearance (rad)."""
-    x = np.zeros(L.N_STATE)
+    """Everything at rest, the mesh at ``delta0`` inside its clearance (rad), the effects'
+    own states at 0."""
+    x = np.zeros(state_count(plant.effects))
     x[L.X_DELTA] = delta0
     return x

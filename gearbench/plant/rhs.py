@@ -5,7 +5,7 @@ States (``gearbench.layout``): current ``i``, rotor angle ``theta_m`` and speed
 relative angle ``delta = theta_p/N - theta_l``, load speed ``w_l``, controller
 states, and two error quadratures.  Equations (SI units)::
 
-    L di/dt      = u - R i - ke w_m
+    L di/dt      = u - R i - v_e(i) - ke w_m
     Jm dw_m/dt   = kt i - bm w_m - T/N                (rigid shaft)
     Jr dw_m/dt   = kt i - bm w_m - Ts,  Ts = ks phi + ds (w_m - w_p)
     Jp dw_p/dt   = Ts - T/N,            dphi/dt = w_m - w_p   (with a shaft)
@@ -21,9 +21,11 @@ no mesh: ``delta = 0`` and the load rides on the pinion,
 
 The effects (``plant/effects``) add ``Tm_e(theta_m, w_m)`` on the rotor,
 ``Te(theta_l, w_l)`` on the load, map the command to the motor voltage, and
-offset the mesh's relative angle as the contact sees it by ``e(theta_l)``.
-Their compiled terms reach these functions as ``fx`` (``effects.codegen``:
-``fx.motor``, ``fx.load``, ``fx.voltage``, ``fx.mesh``), the model's ``args``.
+offset the mesh's relative angle as the contact sees it by ``e(theta_l)``, and
+lose ``v_e(i)`` in the winding; an effect with a state of its own (after the
+plant's, ``x[N_STATE:]``) evolves by its rate.  Their compiled terms reach these
+functions as ``fx`` (``effects.codegen``: ``fx.motor``, ``fx.load``,
+``fx.voltage``, ``fx.mesh``, ``fx.winding``, ``fx.rates``), the model's ``args``.
 """
 import numba as nb
 import numpy as np
@@ -33,7 +35,7 @@ from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, 
                       P_DMESH, P_DRIVE_GAIN, P_DS, P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE,
                       P_KMESH, P_KS, P_KT, P_L, P_LAW, P_N, P_R, P_RIGID, P_TF, P_TORQUE_IN,
                       P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
-                      X_ZD, X_ZI, N_DYN, N_STATE, P_FRIC_EPS_M, P_FRIC_EPS_L, P_PWL)
+                      X_ZD, X_ZI, N_DYN, P_FRIC_EPS_M, P_FRIC_EPS_L, P_PWL)
 from .contact import engaged_torque
 from .friction import net_torque
 
@@ -115,19 +117,19 @@ def free_torques(fx, x, p, modes, ref):
         tm = p[P_DRIVE_GAIN] * u
     else:
         tm = p[P_KT] * x[X_I]
-    tm += fx.motor(p, x[X_THM], wm, p[P_FRIC_EPS_M]) - p[P_BM] * wm
+    tm += fx.motor(p, x, x[X_THM], wm, p[P_FRIC_EPS_M]) - p[P_BM] * wm
     shaft = p[P_HAS_SHAFT] > 0.0
     ts = p[P_KS] * x[X_PHI] + p[P_DS] * (wm - x[X_WP]) if shaft else tm
     if p[P_RIGID] > 0.0:
         # the load rides on the pinion: one body, reflected to the pinion
         wl = pinion_speed(x, p) / n
-        t_load = fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L]) - p[P_BL] * wl
+        t_load = fx.load(p, x, load_angle(x, p), wl, p[P_FRIC_EPS_L]) - p[P_BL] * wl
         if shaft:
             return u, tm - ts, ts + t_load / n, 0.0
         return u, ts + t_load / n, 0.0, 0.0
     t_mesh = mesh_torque(fx, x, p, modes)
     wl = x[X_WL]
-    t1 = t_mesh - p[P_BL] * wl + fx.load(p, load_angle(x, p), wl, p[P_FRIC_EPS_L])
+    t1 = t_mesh - p[P_BL] * wl + fx.load(p, x, load_angle(x, p), wl, p[P_FRIC_EPS_L])
     if shaft:
         return u, tm - ts, t1, ts - t_mesh / n
     return u, tm - t_mesh / n, t1, 0.0
@@ -142,7 +144,7 @@ def rhs(fx, x, p, modes, ref, out):
     if p[P_TORQUE_IN] > 0.0:
         out[X_I] = 0.0
     else:
-        out[X_I] = (u - p[P_R] * x[X_I] - p[P_KE] * wm) / p[P_L]
+        out[X_I] = (u - p[P_R] * x[X_I] - fx.winding(p, x, x[X_I]) - p[P_KE] * wm) / p[P_L]
     out[X_THM] = wm
     shaft = p[P_HAS_SHAFT] > 0.0
     wp = pinion_speed(x, p)
@@ -164,6 +166,8 @@ def rhs(fx, x, p, modes, ref, out):
         out[X_WP] = tp / p[P_JP] if shaft else 0.0
         out[X_DELTA] = wp / n - x[X_WL]
         out[X_WL] = net_torque(fx, p, modes, 1, t1, x[X_WL]) / p[P_JL]
+    wl = pinion_speed(x, p) / n if p[P_RIGID] > 0.0 else x[X_WL]
+    fx.rates(p, x, x[X_THM], wm, load_angle(x, p), wl, out)
     kind = p[P_CTRL]
     if kind == CTRL_OPEN or kind == CTRL_SAMPLED_PV:
         # `ref` is the input itself (or the held sampled command): no error to score here
@@ -189,10 +193,12 @@ def feedback_states(fx, p):
     an implicit step handles them by substitution, like quadratures: the error
     integrals, a shaft's twist and pinion speed without a shaft, the mesh and
     load states of a rigid gear (the load rides on the pinion), the integrator
-    unless the controller is PI or PID, the derivative filter unless PID.
+    unless the controller is PI or PID, the derivative filter unless PID, an effect's
+    state unless the effect is present.
     """
-    used = np.zeros(N_STATE, dtype=np.bool_)
+    used = np.zeros(fx.n_state, dtype=np.bool_)
     used[:N_DYN] = True
+    fx.effect_states(p, used)
     used[X_PHI] = used[X_WP] = p[P_HAS_SHAFT] > 0.0
     used[X_DELTA] = used[X_WL] = p[P_RIGID] == 0.0
     used[X_I] = p[P_TORQUE_IN] == 0.0

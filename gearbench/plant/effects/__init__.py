@@ -10,7 +10,7 @@ Listings use the names in alphabetical order (``NAMES``).
 """
 from . import (coulomb_friction, stribeck_friction, viscous_friction, load_spring,  # noqa: F401
                bias_torque, amplifier_deadzone, backlash, encoder_quantization, sensor_delay,
-               sensor_offset, shaft_compliance)
+               sensor_offset, shaft_compliance, lugre_friction, winding_heating)
 from .base import REGISTRY, AddedEffect, Effect, Param, register  # noqa: F401
 
 

@@ -31,6 +31,9 @@ and acts in one of three ways:
     (rad/s); ``eps`` is the solver's friction smoothing speed there (rad/s);
   - ``"voltage"``: ``term(p, o, u)``, the voltage (V) the motor sees for
     command ``u`` (V);
+  - ``"winding"``: ``term(p, o, i)``, a voltage (V) lost in the winding at
+    current ``i`` (A) beyond the datasheet's ``R i`` (a brush drop, a resistance
+    that has warmed up): ``L di/dt = u - R i - term - ke w``;
   - ``"mesh"``: ``term(p, o, theta_l)``, ``(e, de/dtheta_l)``: an offset (rad)
     of the mesh's relative angle as the contact sees it, at output angle
     ``theta_l`` (rad), and its slope.
@@ -44,6 +47,15 @@ and acts in one of three ways:
   say ``model: regularized`` (its ``term``, smoothed by ``eps``):
   ``settings`` declares that choice.
 
+  An effect with a **state** of its own (a bristle deflection, a winding's
+  temperature) names it in ``state`` (``"name, unit"``) and declares ``rate``,
+  its derivative, a numba function like the term: at ``"motor"``/``"load"``
+  ``rate(p, o, theta, w, z)`` and ``term(p, o, theta, w, eps, z)``, at
+  ``"winding"`` ``rate(p, o, i, z)`` and ``term(p, o, i, z)``, ``z`` the
+  state's value; ``state_scale(values, plant)`` is its typical size (the
+  solver's absolute tolerance scales with it).  The state starts at 0 and runs
+  on through a replay's window seams; each place holds one instance.
+
   It also declares ``piecewise_linear(values)`` (the term is affine in the
   state, so the solver may reuse a Jacobian; the default says no),
   ``linear(values, plant)`` (its stiffness and damping where it is linear,
@@ -56,6 +68,10 @@ and acts in one of three ways:
 * **sensor**: ``measure(values, name, y, time_s, plant)`` distorts a measured signal;
   ``shifts`` says it only adds a constant, which a replay's window reset takes into the
   model's signal before measuring its drift (``identify.replay.Replay._reset_angles``).
+
+``on_request`` marks an effect that ``diagnose`` tries only when asked for (``also``,
+``--also NAME``; or named in ``only``): one that refines physics the library has at a cost
+every record would pay (LuGre friction refines Stribeck friction with presliding).
 
 To add an effect: write a module with a subclass decorated with
 :func:`register`; a built-in one is imported in ``effects/__init__.py`` (its
@@ -129,6 +145,9 @@ class Effect:
     places: ClassVar[tuple[str, ...]] = ()
     slots: ClassVar[tuple[str, ...]] = ()  # what the term reads at p[o], p[o + 1], ... (SI)
     source: ClassVar[str | None] = None  # the file of an effect from outside the package
+    state: ClassVar[str] = ""  # "name, unit" of the effect's own state, "" for none
+    rate: ClassVar[Any] = None  # the state's derivative (see the module docstring)
+    on_request: ClassVar[bool] = False  # diagnose tries it only when asked for (also, --also)
     rounds: ClassVar[bool] = False  # a sensor effect that rounds its signal to a grid (no noise below it)
     shifts: ClassVar[bool] = False  # a sensor effect that adds a constant: a window's reset sees through it
 
@@ -141,6 +160,11 @@ class Effect:
         ``places``, and the numbers it reads there (SI); raise ValueError for
         a plant it cannot act on."""
         raise NotImplementedError(f"effect {self.name!r} has a term but no compiled()")
+
+    def state_scale(self, values: dict, plant) -> float:
+        """Typical size of this instance's state on ``plant``, in its unit (the solver's
+        absolute tolerance is ``rtol`` times it)."""
+        return 1.0
 
     def piecewise_linear(self, values: dict) -> bool:
         """True when this instance's term is affine in the state (a spring, a
@@ -219,7 +243,8 @@ def lumped_rotor(plant) -> str:
             f"motor.inertia the rotor's value and take it out of the load's")
 
 
-PLACES = ("motor", "load", "voltage", "mesh")
+PLACES = ("motor", "load", "voltage", "mesh", "winding")
+STATE_PLACES = ("motor", "load", "winding")  # where an effect with a state may act
 
 
 def register(cls):
@@ -244,6 +269,10 @@ def register(cls):
     if cls.friction is not None and (cls.term is None or set(cls.places) - {"motor", "load"}):
         raise ValueError(f"effect {cls.name!r}: a stick-slip law (friction) needs a term acting at "
                          f"'motor' or 'load' only, as its regularized form")
+    if bool(cls.state) != (cls.rate is not None) or (cls.state and (
+            cls.term is None or cls.friction is not None or set(cls.places) - set(STATE_PLACES))):
+        raise ValueError(f"effect {cls.name!r}: a state needs both its name (state) and its derivative (rate), "
+                         f"a term acting at {STATE_PLACES} only, and no stick-slip law")
     if isinstance(cls.confounders, str) or not all(isinstance(n, str) for n in cls.confounders):
         # a bare string would be taken letter by letter
         raise ValueError(f"effect {cls.name!r}: confounders must be a tuple of effect names, "

@@ -10,8 +10,13 @@ From the registered effects' declarations (``base.py``: ``term``, ``places``,
   order, so loading an effect module only appends blocks;
 * the **sums**: one numba function per place that adds the torques of the
   effects present there (``motor``, ``load``), composes the voltage maps
-  (``voltage``) or adds the mesh offsets (``mesh``), generated as Python
-  source with the offsets as constants;
+  (``voltage``), adds the mesh offsets (``mesh``) or the winding's voltage
+  drops (``winding``), generated as Python source with the offsets as constants;
+* the **effect states**: each block of an effect with a ``state`` owns one
+  state after the plant's (``layout.N_STATE + k``); ``rates`` writes their
+  derivatives and ``n_state`` counts them.  Only a plant with such an effect
+  needs them, and every state costs each step, so there are two compiled
+  models: one with the states and one without (those effects' blocks left out);
 * the **compiled model**: a module with ``plant.model``'s contract, those
   sums as its ``args``, and its entry points ``integrate`` and
   ``derivative``, compiled and cached by numba.
@@ -44,9 +49,10 @@ _LOCK = threading.Lock()
 @dataclass(frozen=True)
 class Block:
     name: str     # the effect
-    place: str    # "motor", "load", "voltage" or "mesh"
+    place: str    # "motor", "load", "voltage", "mesh", "winding" or a stick-slip law's "motor_stick", "load_stick"
     offset: int   # its count slot; its numbers follow
     size: int     # numbers after the count
+    state: int = -1  # the index of its own state in x, -1 for none
 
 
 def term_of(effect):
@@ -89,15 +95,34 @@ def blocks() -> dict[tuple[str, str], Block]:
     """The layout of the effects' slots, keyed by (effect, place); an effect
     with a stick-slip law has a second block at each of its shafts
     (``motor_stick``, ``load_stick``), read by that law."""
-    out, offset = {}, L.P_SIZE
+    out, offset, state = {}, L.P_SIZE, L.N_STATE
     for e in compiled_effects():
         places = list(e.places)
         if friction_of(e) is not None:
             places += [STICK[q] for q in e.places]
         for place in places:
-            out[(e.name, place)] = Block(e.name, place, offset, len(e.slots))
+            out[(e.name, place)] = Block(e.name, place, offset, len(e.slots), state if e.state else -1)
             offset += 1 + len(e.slots)
+            state += bool(e.state)
     return out
+
+
+@_per_revision
+def n_state() -> int:
+    """Length of the state vector of the model with the effects' states: the plant's
+    (``layout.N_STATE``) and one per block of an effect with a state of its own."""
+    return L.N_STATE + sum(b.state >= 0 for b in blocks().values())
+
+
+def state_count(effects) -> int:
+    """Length of the state vector for a plant with ``effects``: :func:`n_state` when one of them
+    has a state of its own, else the plant's ``layout.N_STATE``."""
+    return n_state() if any(term_of(a.effect) is not None and a.effect.state for a in effects) else L.N_STATE
+
+
+def needs_states(p) -> bool:
+    """Whether packed vector ``p`` holds an effect with a state of its own."""
+    return any(b.state >= 0 and b.offset < len(p) and p[b.offset] != 0.0 for b in blocks().values())
 
 
 @_per_revision
@@ -129,6 +154,9 @@ def pack_effects(effects, plant, p) -> bool:
                              f"its places {e.places}; return one of them or declare it")
         stick = stick_slip(added)
         b = table[(e.name, STICK[place] if stick else place)]
+        if b.state >= 0 and p[b.offset] != 0.0:
+            raise ValueError(f"effect {e.name!r} has a state of its own, so one instance acts at "
+                             f"{place!r}: merge the two into one")
         if stick:
             p[STICK_FLAG[place]] = 1.0
         if len(numbers) != b.size:
@@ -139,10 +167,21 @@ def pack_effects(effects, plant, p) -> bool:
     return linear
 
 
+def state_scales(effects, plant, sc) -> None:
+    """Write the typical size of each effect's own state (``Effect.state_scale``) into ``sc``."""
+    table = blocks()
+    for added in effects:
+        e = added.effect
+        if e.state and term_of(e) is not None:
+            place, _ = e.compiled(added.values, plant)
+            sc[table[(e.name, place)].state] = e.state_scale(added.values, plant)
+
+
 _TORQUE = '''
 @nb.njit(inline="always", _nrt=False)
-def {place}(p, theta, w, eps):
-    """Torque of the effects on the {body} at angle theta (rad), speed w (rad/s), N m."""
+def {place}(p, x, theta, w, eps):
+    """Torque of the effects on the {body} at angle theta (rad), speed w (rad/s), N m
+    (an effect with a state reads it from x)."""
     t = 0.0
 {lines}    return t
 '''
@@ -160,6 +199,25 @@ _VOLTAGE = '''
 def voltage(p, u):
     """The voltage (V) the motor sees for command u (V)."""
 {lines}    return u
+'''
+_WINDING = '''
+@nb.njit(inline="always", _nrt=False)
+def winding(p, x, i):
+    """Voltage (V) the effects lose in the winding at current i (A), beyond R i."""
+    v = 0.0
+{lines}    return v
+'''
+_RATES = '''
+@nb.njit(inline="always", _nrt=False)
+def rates(p, x, theta_m, w_m, theta_l, w_l, out):
+    """Write the derivatives of the effects' own states into out (0 where an effect is absent)."""
+{lines}    return
+
+
+@nb.njit(inline="always", _nrt=False)
+def effect_states(p, used):
+    """Mark the effects' states that are present (their rates read them)."""
+{marks}    return
 '''
 _MESH = '''
 @nb.njit(inline="always", _nrt=False)
@@ -215,13 +273,14 @@ def term_module(name: str, source_file: str | None, kind: str = "term"):
                      f"{module.__name__}")
 
 
-def source() -> str:
-    """The generated module's source for the registered effects.
+def source(states: bool) -> str:
+    """The generated module's source for the registered effects (without ``states``: the
+    model without the effects' own states, their blocks left out).
 
     Terms are called as attributes of their modules (a module is nothing at
     run time, so the compiled entry points can be cached); the sums are plain
     functions, not numba-inlined (LLVM inlines what pays)."""
-    table = blocks()
+    table = {k: b for k, b in blocks().items() if states or b.state < 0}
     names = {}
     for b in table.values():
         names.setdefault(b.name, f"_e{len(names)}")
@@ -235,10 +294,16 @@ def source() -> str:
         head.append(f"{var}, _ = term_module({name!r}, {REGISTRY[name].source!r})")
     attrs = {name: term_module(name, REGISTRY[name].source)[1] for name in names}
 
-    def lines(place, call):
+    def lines(place, call, with_state=None):
         return "".join(f"    if p[{b.offset}] != 0.0:\n        "
-                       f"{call.format(t=names[b.name] + '.' + attrs[b.name], o=b.offset + 1)}\n"
+                       f"{(with_state if b.state >= 0 else call).format(t=names[b.name] + '.' + attrs[b.name], o=b.offset + 1, z=b.state)}\n"
                        for b in table.values() if b.place == place)
+    rates = {name: term_module(name, REGISTRY[name].source, "rate")[1] for name in names
+             if REGISTRY[name].state}
+    arg = {"motor": "theta_m, w_m", "load": "theta_l, w_l", "winding": f"x[{L.X_I}]"}
+    rate_lines = "".join(f"    out[{b.state}] = {names[b.name]}.{rates[b.name]}(p, {b.offset + 1}, {arg[b.place]}, "
+                         f"x[{b.state}]) if p[{b.offset}] != 0.0 else 0.0\n" for b in table.values() if b.state >= 0)
+    marks = "".join(f"    used[{b.state}] = p[{b.offset}] != 0.0\n" for b in table.values() if b.state >= 0)
     frictions = {name: term_module(name, REGISTRY[name].source, "friction")[1] for name in names
                  if friction_of(REGISTRY[name]) is not None}
 
@@ -246,13 +311,17 @@ def source() -> str:
         return "".join(f"    if p[{b.offset}] != 0.0:\n        a, c = {names[b.name]}.{frictions[b.name]}(p, "
                        f"{b.offset + 1}, s, w)\n        lv += a\n        br += c\n"
                        for b in table.values() if b.place == STICK[place])
-    body = [_TORQUE.format(place="motor", body="rotor", lines=lines("motor", "t += {t}(p, {o}, theta, w, eps)")),
-            _TORQUE.format(place="load", body="output shaft", lines=lines("load", "t += {t}(p, {o}, theta, w, eps)")),
+    torque = ("t += {t}(p, {o}, theta, w, eps)", "t += {t}(p, {o}, theta, w, eps, x[{z}])")
+    body = [_TORQUE.format(place="motor", body="rotor", lines=lines("motor", *torque)),
+            _TORQUE.format(place="load", body="output shaft", lines=lines("load", *torque)),
             _FRICTION.format(place="motor", body="rotor", lines=stick_lines("motor")),
             _FRICTION.format(place="load", body="output shaft", lines=stick_lines("load")),
             _VOLTAGE.format(lines=lines("voltage", "u = {t}(p, {o}, u)")),
-            _MESH.format(lines=lines("mesh", "a, b = {t}(p, {o}, theta)\n        e += a\n        de += b"))]
-    return "\n".join(head) + "\n" + "\n".join(body) + f"\nSIZE = {size()}  # length of the parameter vector\n" + _TAIL
+            _MESH.format(lines=lines("mesh", "a, b = {t}(p, {o}, theta)\n        e += a\n        de += b")),
+            _WINDING.format(lines=lines("winding", "v += {t}(p, {o}, i)", "v += {t}(p, {o}, i, x[{z}])")),
+            _RATES.format(lines=rate_lines, marks=marks)]
+    return ("\n".join(head) + "\n" + "\n".join(body) + f"\nSIZE = {size()}  # length of the parameter vector\n"
+            f"n_state = {n_state() if states else L.N_STATE}  # the plant's states and the effects' own\n" + _TAIL)
 
 
 def _folder() -> Path:
@@ -260,23 +329,23 @@ def _folder() -> Path:
     return Path(base) / "models"
 
 
-def compiled_model():
-    """The generated module for the effects registered now (written and
-    imported once per set of effects; thread-safe: a Dask worker's threads
-    would otherwise see one another's half-imported module)."""
-    model = _MODELS.get(REVISION[0])
+def compiled_model(states: bool = False):
+    """The generated module for the effects registered now, with the effects' own states or
+    without (written and imported once per set of effects; thread-safe: a Dask worker's
+    threads would otherwise see one another's half-imported module)."""
+    model = _MODELS.get((REVISION[0], states))
     if model is None:
         with _LOCK:
-            rev = REVISION[0]
-            model = _MODELS.get(rev)
+            key = (REVISION[0], states)
+            model = _MODELS.get(key)
             if model is None:
-                model = _MODELS[rev] = _generate()
+                model = _MODELS[key] = _generate(states)
     return model
 
 
-def _generate():
+def _generate(states: bool):
     from ...physics_hash import physics_digest
-    text = source()
+    text = source(states)
     # named by everything its compiled code depends on: gearbench's physics (numba checks
     # only this file's date), the generated text and the outside effects' sources
     key = hashlib.sha256((VERSION + physics_digest() + text + "".join(
