@@ -5,7 +5,8 @@ noise unlike the defaults) in a 16 s record made by ``synthesize`` (stick-slip
 friction, the default law) from the bench rig (not the thesis plant) under the
 practice cases' mixed excitation (``synth.mixed``), every friction also at the
 motor; it runs the whole
-library's diagnosis (one rung) and checks the verdict names the hidden effect
+library's diagnosis (one rung; an effect tried only when asked for, ``Effect.on_request``, is
+asked for) and checks the verdict names the hidden effect
 and its place, its main parameter comes back within 15 %, the error after it
 is within 1.2x the noise floor, and the explanation names the effect's
 signature.  With nothing hidden, five plants with five noise seeds give no
