@@ -6,7 +6,8 @@ against Stribeck's curve, its hold below breakaway as the bristles' spring, its 
 static level and its convergence to the event-driven stick-slip law as the bristles stiffen.  The
 winding against scipy and against its analytic steady state on a stalled rotor.  A state runs on
 through a replay's window seams.  Both fitted on records with AR(1) noise (the fit assumes white
-noise), the truth within four standard errors.
+noise), the truth within four standard errors.  A user's effect file with a state, against its
+analytic answer.
 """
 from __future__ import annotations
 
@@ -236,3 +237,54 @@ def test_without_only_the_library_names_what_is_tried_on_request():
     names = {c.name for c in candidates(plant, replay)}
     assert not names & {"lugre_friction", "winding_heating"} and "coulomb_friction" in names
     assert {c.name for c in candidates(plant, replay, also=("lugre_friction",))} == names | {"lugre_friction"}
+
+
+LAGGED = '''"""A torque on the load that builds up to ``torque`` (N m) with time constant ``tau`` (s):
+dT/dt = (torque - T) / tau, its value the effect's own state."""
+import numba as nb
+
+from gearbench.plant.effects import Effect, Param, register
+
+
+@nb.njit(cache=True)
+def rate(p, o, theta, w, z):
+    return (p[o] - z) / p[o + 1]
+
+
+@nb.njit(cache=True)
+def term(p, o, theta, w, eps, z):
+    return z
+
+
+@register
+class LaggedTorque(Effect):
+    """A torque that builds up with a lag."""
+    name = "lagged_torque"
+    signature = "a constant"
+    acts_on = "load torque"
+    params = (Param("torque", "N m", -1e3, 1e3, 0.1), Param("tau", "s", 1e-6, 1e3, 0.1))
+    term = term
+    rate = rate
+    state = "torque built up, N m"
+    places = ("load",)
+    slots = ("torque, N m", "tau, s")
+
+    def compiled(self, values, plant):
+        return "load", (float(values["torque"]), float(values["tau"]))
+'''
+
+
+def test_an_effect_with_a_state_written_outside_the_package(tmp_path):
+    """A user's effect file declares a state like the built-in ones: a torque building up as
+    T0 (1 - exp(-t/tau)) on a free body, whose speed is then (T0/J) (t - tau (1 - exp(-t/tau)))."""
+    from gearbench.plant.effects.user import load, unload
+    module = tmp_path / "lagged.py"
+    module.write_text(LAGGED)
+    load(module)
+    try:
+        plant = body(AddedEffect("lagged_torque", {"torque": 0.5, "tau": 0.2}), inertia=J)
+        t, out, _ = run(plant, [0.0], [0.0], t_end=1.0, rtol=1e-10)
+        exact = 0.5 / J * (t - 0.2 * (1.0 - np.exp(-t / 0.2)))
+        assert np.abs(out[:, L.O_WL] - exact).max() < 1e-7 * exact.max()
+    finally:
+        unload(module)
