@@ -63,11 +63,30 @@ def expected(truth: dict) -> list[dict]:
     return out
 
 
+def sensor_offsets(truth: dict) -> dict[str, float]:
+    """The record's sensor offsets by signal (``realism.offset``, ``noise_model.<signal>.offset``):
+    a sensor's, not a hidden effect (``data/cases/README.md``: "The encoders and the offset in p13
+    are the sensors, not a hidden effect")."""
+    out = dict((truth.get("realism") or {}).get("offset") or {})
+    out.update({s: m["offset"] for s, m in (truth.get("noise_model") or {}).items() if "offset" in m})
+    return out
+
+
 def score(truth: dict, report: dict) -> dict:
-    """The diagnosis against the truth: verdict, parameters, the model's end over the true noise."""
+    """The diagnosis against the truth: verdict, parameters, the model's end over the true noise.
+
+    A ``sensor_offset`` of the final model on a signal whose sensor has an offset, within 15 % of
+    it, is the record's sensor found (``sensors_found``), neither a hidden effect nor a false one:
+    the verdict is right when the other effects are the hidden ones."""
     hidden = expected(truth)
     final = report["ladder"][-1]["model"] if report["ladder"] else []  # the final model, refitted
-    found = sorted(e["type"] for e in final)
+    offsets = sensor_offsets(truth)
+
+    def sensor(e):
+        true = offsets.get(e.get("signal"))
+        return e["type"] == "sensor_offset" and true is not None and abs(e["offset"] - true) <= 0.15 * abs(true)
+    sensors = [{"signal": e["signal"], "true": offsets[e["signal"]], "fitted": e["offset"]} for e in final if sensor(e)]
+    found = sorted(e["type"] for e in final if not sensor(e))
     params = {}
     for h in hidden:
         e = next((e for e in final if e["type"] == h["effect"] and h["location"] in (None, e.get("location"))),
@@ -84,7 +103,7 @@ def score(truth: dict, report: dict) -> dict:
     end = report["ladder"][-1]["error"] if report["ladder"] else report["baseline_error"]
     if cal and cal["after_step"] >= len(report["ladder"]):
         end = cal["error"]
-    return {"expected": sorted(h["effect"] for h in hidden), "found": found,
+    return {"expected": sorted(h["effect"] for h in hidden), "found": found, "sensors_found": sensors,
             "verdict_right": found == sorted(h["effect"] for h in hidden), "params": params,
             "error_signal": signal, "end": end, "true_noise": noise.get(signal),
             "end_over_true_noise": end / noise[signal] if noise.get(signal) else None}

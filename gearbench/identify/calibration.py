@@ -215,6 +215,41 @@ def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], cali
     return [x for _, x in ranked[:search.LOCAL_STARTS]]
 
 
+SPLIT_STEP = 0.01
+"""Step of :func:`split_points`, a share of the rotor's inertia.  On practice record p08 the true
+basin is a notch about 1 % wide in that valley: from the wrong basin's other values, the true split
+gave a weighted RSS of 2.8e5, 0.5 % off it 3.9-4.1e5, 1 % off 0.9-1.2e6, the wrong basin 2.2e6
+(2026-11-29), so a 1 % step lands in it from any offset."""
+
+
+def split_points(frees: list[Free], x, ratio: float) -> list[np.ndarray]:
+    """Points along the valley of one reflected inertia, around fit coordinates ``x``: the rotor's
+    inertia ``J_m`` (``motor.inertia``) stepped by :data:`SPLIT_STEP` of its value across its
+    bounds, the load's ``J_l`` (``load.inertia``) moved to keep ``J_m + J_l / N^2`` (``N`` the gear
+    ``ratio``), every other coordinate held; ``x`` itself first; none without both inertias free.
+
+    Why: a record's rigid-body motion fixes the inertia the motor drives, ``J_m + J_l / N^2``,
+    sharply; how it splits between the two sides shows only in the clearance's transits and the
+    load's own modes, a narrow notch in that valley, which a local fit slides past and a scan of
+    the whole tolerance box rarely hits."""
+    names = [f.name for f in frees]
+    if "motor.inertia" not in names or "load.inertia" not in names:
+        return []
+    x = np.asarray(x, dtype=float)
+    im, il = names.index("motor.inertia"), names.index("load.inertia")
+    total = x[im] + x[il] / ratio ** 2
+    out = [x]
+    steps = int(math.ceil((frees[im].high - frees[im].low) / (SPLIT_STEP * x[im])))
+    for k in range(-steps, steps + 1):
+        jm = x[im] * (1.0 + k * SPLIT_STEP)
+        jl = (total - jm) * ratio ** 2
+        if k and frees[im].low <= jm <= frees[im].high and frees[il].low <= jl <= frees[il].high:
+            y = x.copy()
+            y[im], y[il] = jm, jl
+            out.append(y)
+    return out
+
+
 @single_threaded
 def fit_from(job) -> tuple[FitResult, Cost]:
     """A calibration's fit from one of :func:`starts`' points, as one job tuple ``(replay, scorer,
