@@ -422,7 +422,8 @@ def _along_the_valley(ctx: Context, state: State, number: int) -> State | None:
     ctx.tracker.timing.add_here(spent)
     if not got.converged or got.rss >= model.rss:
         return None
-    rung = replace(state.rungs[-1], result=got, **dict(zip(("model", "plant_params"), _model(got.plant, state.refitted))))
+    effects, values = _model(got.plant, state.refitted)
+    rung = replace(state.rungs[-1], result=got, model=effects, plant_params=values)
     return replace(state, rungs=state.rungs[:-1] + (rung,), model=got)
 
 

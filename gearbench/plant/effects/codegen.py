@@ -295,9 +295,10 @@ def source(states: bool) -> str:
     attrs = {name: term_module(name, REGISTRY[name].source)[1] for name in names}
 
     def lines(place, call, with_state=None):
-        return "".join(f"    if p[{b.offset}] != 0.0:\n        "
-                       f"{(with_state if b.state >= 0 else call).format(t=names[b.name] + '.' + attrs[b.name], o=b.offset + 1, z=b.state)}\n"
-                       for b in table.values() if b.place == place)
+        def one(b):
+            form = with_state if b.state >= 0 else call
+            return form.format(t=names[b.name] + "." + attrs[b.name], o=b.offset + 1, z=b.state)
+        return "".join(f"    if p[{b.offset}] != 0.0:\n        {one(b)}\n" for b in table.values() if b.place == place)
     rates = {name: term_module(name, REGISTRY[name].source, "rate")[1] for name in names
              if REGISTRY[name].state}
     arg = {"motor": "theta_m, w_m", "load": "theta_l, w_l", "winding": f"x[{L.X_I}]"}

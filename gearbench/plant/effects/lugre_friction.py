@@ -86,7 +86,8 @@ class LuGreFriction(Effect):
               "speed w_s over which T_s decays to T_c"),
         Param("bristle_stiffness", "N m/rad", 1e-9, 1e12, _stiffness, "sigma0: presliding stiffness"),
         Param("bristle_damping", "N m s/rad", 0.0, 1e9, _damping, "sigma1: damping of the bristles' motion"),
-        Param("viscous_coefficient", "N m s/rad", 0.0, 1e6, coefficient_scale, "sigma2: viscous friction", optional=True),
+        Param("viscous_coefficient", "N m s/rad", 0.0, 1e6, coefficient_scale, "sigma2: viscous friction",
+              optional=True),
     )
     term = torque
     rate = bristle_rate
