@@ -226,9 +226,13 @@ def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_fir
     from types import SimpleNamespace
     plant = _rig()
     tried = _six_ranked(plant)
-    current = SimpleNamespace(bic=1000.0, weighted_rms=50.0, seams=(), plant=plant)
-    best = SimpleNamespace(result=SimpleNamespace(bic=900.0, weighted_rms=40.0, seams=()))
-    ctx = SimpleNamespace(policy=Policy(), scorer=None, replay=None, workers=2, tracker=Tracker(None))
+    # white residuals (correlation time 1) of 1000 samples: the BIC drops are 1000 ln(RSS ratio)
+    current = SimpleNamespace(bic=1000.0, rss=1000.0, n=1000, k=0, weighted_rms=50.0,
+                              seams=(), plant=plant)
+    best = SimpleNamespace(result=SimpleNamespace(bic=900.0, rss=900.0, n=1000, k=0,
+                                                  weighted_rms=40.0, seams=()))
+    white = SimpleNamespace(correlation_time=lambda res: 1.0)
+    ctx = SimpleNamespace(policy=Policy(), scorer=white, replay=None, workers=2, tracker=Tracker(None))
     state = ladder.State(current)
 
     def run(first_pays: bool, greedy_at_noise: bool):
@@ -236,8 +240,9 @@ def test_the_next_rung_is_screened_during_the_pairs_only_when_no_pair_of_the_fir
 
         def fake_run_jobs(fn, batch, workers, progress):
             return [Pair(j[3], j[4], SimpleNamespace(
-                converged=True, error=1.0, bic=500.0 if first_pays else 899.0,
-                weighted_rms=20.0 if first_pays else 39.9, seams=())) for j in batch]
+                converged=True, error=1.0, bic=500.0 if first_pays else 899.0, n=1000, k=0,
+                rss=500.0 if first_pays else 899.0, weighted_rms=20.0 if first_pays else 39.9,
+                seams=())) for j in batch]
 
         def look_ahead(ctx, state, best, number):
             looked.append(number)

@@ -140,7 +140,7 @@ def test_an_effect_that_pays_only_by_moving_the_resets_does_not_pay(rig):
         "location": "motor", "static_torque": 4.65185e-07, "coulomb_torque": 1.2e-15, "stribeck_speed": 80.2824}))
     right, wrong = evaluate(scorer.replay, scorer, rig), evaluate(scorer.replay, scorer, stribeck, 3)
     assert len(right.seams) == 8 and len(wrong.seams) == 10
-    assert Policy().pays(right, wrong) and not Policy().accepts(scorer, right, wrong)
+    assert Policy().pays(scorer, right, wrong) and not Policy().accepts(scorer, right, wrong)
     hidden = AddedEffect("coulomb_friction", {"location": "load", "torque": 0.5})
     t, u = excitation("mixed", rig, duration_s=8.0, seed=0)
     scorer = Scorer(Replay(synthesize(rig, [hidden], t, u, noise=NOISE, seed=0)))

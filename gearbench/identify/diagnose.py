@@ -12,7 +12,9 @@ evidence of every signal instead (``scoring.signal_evidence``,
 ``sum_s n_s ln(RSS_s/n_s)``): they keep the slots their BICs earn, best
 evidence first, so a location one signal clearly contradicts is not chosen
 because another signal's larger misfit dominates the pooled RSS.
-The best one is the verdict when it lowers the BIC by more than
+The best one is the verdict when it lowers the BIC, its residuals counted as ``n / tau``
+independent samples (``scoring.bic_drop``, ``tau`` their correlation time: coloured noise is not
+evidence), by more than
 ``Policy.min_bic_drop`` (10: "very strong" evidence, Kass & Raftery 1995) and the
 error by more than ``Policy.min_error_drop``, also with both models' angles reset at the
 same window seams (``Policy.accepts``); ``None`` when the model already sits

@@ -13,6 +13,7 @@ from .evidence import explain as evidence_text
 from .fit import FitResult
 from .ladder import Context, Joint, Rung, Simplified, State
 from .policy import at_seams
+from .scoring import bic_drop
 
 NOT_IN_LIBRARY = "; the missing physics is not in the library"
 
@@ -48,7 +49,8 @@ def rivals(ctx: Context, rung: Rung) -> list[dict]:
         return []
     out = [{"effect": t.candidate.name, "options": dict(t.candidate.options), "params": t.params,
             "error": t.result.error, "bic_difference": t.result.bic - own[0]}
-           for t in rung.tried if t.ok and t.candidate != chosen and ctx.policy.pays(rung.before, t.result)
+           for t in rung.tried
+           if t.ok and t.candidate != chosen and ctx.policy.pays(ctx.scorer, rung.before, t.result)
            and t.result.bic - own[0] < AMBIGUOUS_BIC]
     return sorted(out, key=lambda r: r["bic_difference"])
 
@@ -67,11 +69,12 @@ def rivals_text(found: list[dict]) -> str:
 def removal_text(ctx: Context, rung: Rung, number: int) -> str:
     """Why an effect was taken out at step ``number``."""
     unit, p = ctx.replay.unit(ctx.scorer.primary), ctx.policy
-    gain = rung.result.bic - rung.before.bic
+    gain = -bic_drop(ctx.scorer, rung.before, rung.result)
     return (f"Taken out at step {number}: once {rung.after} is in, {rung.effect} no longer pays; refitted "
             f"without it the error is {rung.result.error:.4g} {unit} against {rung.before.error:.4g} {unit}, the "
-            f"BIC {'rises' if gain > 0 else 'falls'} by {abs(gain):.1f} (an effect must lower it by more than "
-            f"{p.min_bic_drop:g} and the weighted RMS by {p.min_error_drop:.0%} to stay).")
+            f"BIC (the residual's correlation counted) {'rises' if gain > 0 else 'falls'} by "
+            f"{abs(gain):.1f} (an effect must lower it by more than {p.min_bic_drop:g} and the weighted RMS "
+            f"by {p.min_error_drop:.0%} to stay).")
 
 
 def pair_text(joint: Joint) -> str:
@@ -92,7 +95,7 @@ def simplified_text(s: Simplified, number: int) -> str:
 
 def seams_text(ctx: Context, current: FitResult, new: FitResult) -> str:
     """Why ``new`` does not pay though it would by its own resets (``Policy.accepts``), else ''."""
-    if not ctx.policy.pays(current, new):
+    if not ctx.policy.pays(ctx.scorer, current, new):
         return ""
     new_at, current_at = at_seams(ctx.scorer, new, current.seams), at_seams(ctx.scorer, current, new.seams)
     return (f"; it would pay only by where the replay resets the angles (at {len(new.seams)} window seams against "
@@ -129,8 +132,10 @@ def _nothing_pays(ctx: Context, state: State) -> str:
     if best is None:
         gain = "no candidate could be fitted" if stop.screened else "no candidate is left to try"
     else:
+        change = -bic_drop(ctx.scorer, res, best.result)
         gain = (f"the best, {best.candidate.label()}, would take the error to "
-                f"{best.result.error:.4g} {unit} (BIC change {best.result.bic - res.bic:+.1f}, "
+                f"{best.result.error:.4g} {unit} (BIC change {change:+.1f} counting the residual's correlation, "
+                f"{best.result.bic - res.bic:+.1f} white, "
                 f"weighted RMS {res.weighted_rms:.4g} -> {best.result.weighted_rms:.4g}; an "
                 f"added effect must lower the BIC by more than {p.min_bic_drop:g} and the weighted RMS "
                 f"by {p.min_error_drop:.0%}){seams_text(ctx, res, best.result)}")

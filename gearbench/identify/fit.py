@@ -210,6 +210,7 @@ class FitResult:
     sim: dict | None = None
     signals: dict = field(default_factory=dict)  # column -> (weighted RSS, n): the evidence of each signal
     seams: tuple = ()  # the window seams (first samples) at which its replay moved the angles (ReplayRun.seams)
+    noise: dict = field(default_factory=dict)  # column -> scoring.NoiseModel of its weighted residual
     rescored: dict = field(default_factory=dict, repr=False, compare=False)  # seams -> the plant scored there
 
     @property
@@ -248,8 +249,10 @@ class FitResult:
 
     @property
     def bic(self) -> float:
-        """The criterion of the weighted residuals (:func:`gearbench.identify.scoring.criterion`: the
-        Bayesian information criterion, ``n ln(RSS/n) + k ln n``)."""
+        """The Bayesian information criterion of the weighted residuals, ``n ln(RSS/n) + k ln n``
+        (:func:`gearbench.identify.scoring.criterion`): the fit's own least squares, charged per
+        parameter.  Candidates are ranked by it; what pays is decided by
+        :func:`gearbench.identify.scoring.bic_drop`, which counts the residual's correlation."""
         return criterion(self.rss, self.n, self.k)
 
 
@@ -259,7 +262,7 @@ def evaluate(replay: Replay, scorer: Scorer, plant: Plant, k: int = 0, seams: tu
     sim = replay.run(plant, seams=seams)
     w = scorer.weighted(sim)
     return FitResult(plant, {}, scorer.error(sim), float(w @ w), w.size, k, True, "evaluated", 1, sim,
-                     scorer.per_signal(sim), seams=sim.seams)
+                     scorer.per_signal(sim), seams=sim.seams, noise=scorer.noise_models(sim))
 
 
 POOR_STEP = 0.1
@@ -529,4 +532,5 @@ def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
     params = {f.name: Parameter(f, param_value(fitted, f), float(stderr[i]), float(white[i]),
                                 {b: float(rho[i, j]) for j, b in enumerate(names)}) for i, f in enumerate(frees)}
     return FitResult(fitted if converged else plant, params, scorer.error(sim), rss, n, k,
-                     converged, msg, nfev, sim, scorer.per_signal(sim), seams=sim.seams)
+                     converged, msg, nfev, sim, scorer.per_signal(sim), seams=sim.seams,
+                     noise=scorer.noise_models(sim))

@@ -27,7 +27,7 @@ from . import calibration, search
 from .candidates import Pair, Trial, Tried, candidates, fit_each, pair_jobs, rank, run_jobs, run_pair
 from .executor import Executor
 from .fit import FitResult, Free, get_value, plant_frees
-from .scoring import Scorer
+from .scoring import Scorer, bic_drop
 from .policy import Policy
 from .progress import Tracker
 from .refit import best_fit, frees_of, refit
@@ -469,7 +469,7 @@ def removals(replay: Replay, scorer: Scorer, policy: Policy, res: FitResult, fir
             effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
             r = refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)))
             if r is not None and not policy.accepts(scorer, r, res):
-                options.append((r.bic - res.bic, i, r))
+                options.append((bic_drop(scorer, r, res), i, r))
         if not options:
             break
         gain, i, r = min(options, key=lambda o: o[0])
