@@ -36,9 +36,9 @@ from .replay import Replay
 
 
 AR_MAX_ORDER = 10
-"""Highest order of a residual's noise model (:func:`noise_model`).  The records' coloured noise
-took orders 1-3 (AR(1) sensors, 250 Hz-1 kHz); a model that drifts between window resets takes
-more, and every order past the first costs its ``ln n``."""
+"""Highest order of a residual's noise model (:func:`noise_model`).  AR(1) sensor noise takes order
+1; a residual with window resets or a misfit in it takes more (p05's true plant, AR(1) noise on
+both angles: 8 and 9), and every order costs its ``ln n``."""
 
 
 @dataclass(frozen=True)
