@@ -23,11 +23,11 @@ def comparison(replay: Replay, plant, sim: ReplayRun | None = None, lags: int | 
     rows = []
     for name, r in res.items():
         y = replay.measured(name)
-        nf = replay.noise_floor(name)
+        nf, rule = replay.noise_reading(name)
         unit = replay.unit(name)
         rms = float(np.sqrt(np.mean(r ** 2)))
         rows.append({"signal": name, "unit": unit, "rms_error": rms, "max_error": float(np.max(np.abs(r))),
-                     "noise_floor": nf, "noise_rule": replay.noise_rule(name), "ratio_to_noise": rms / nf if nf > 0 else float("inf"),
+                     "noise_floor": nf, "noise_rule": rule, "ratio_to_noise": rms / nf if nf > 0 else float("inf"),
                      "relative_error_pct": float(100 * np.linalg.norm(r) / max(np.linalg.norm(y), 1e-300))})
     primary = primary_signal(replay)
     name, th = replay.motion(plant)

@@ -233,21 +233,24 @@ class Replay:
         """The unit of compared column ``name`` (a signal's, or the input's in closed loop)."""
         return self.data.signal_unit(name) if name in self.data.signals else self.data.input_unit
 
+    def noise_reading(self, name: str) -> tuple[float, str]:
+        """``(noise_floor(name), noise_rule(name))``, the record's column read once."""
+        if name in self.noise_std:
+            return self.noise_std[name], "stated"
+        est = noise_estimate(self.measured(name))
+        return est.floor, est.rule
+
     def noise_floor(self, name: str) -> float:
         """Standard deviation of the noise on compared column ``name``, in its unit: the stated one
         (``noise_std``), else :func:`gearbench.measure.noise.noise_floor` of the record's column."""
-        if name in self.noise_std:
-            return self.noise_std[name]
-        return noise_estimate(self.measured(name)).floor
+        return self.noise_reading(name)[0]
 
     def noise_rule(self, name: str) -> str:
         """How :meth:`noise_floor` read compared column ``name``'s floor: ``"stated"`` (``noise_std``:
         given, or from a record at rest), else the rule of
         :func:`gearbench.measure.noise.noise_estimate` (a key of ``measure.noise.RULES``:
         ``"differences"``, ``"quantum"``, ``"quantized differences"``)."""
-        if name in self.noise_std:
-            return "stated"
-        return noise_estimate(self.measured(name)).rule
+        return self.noise_reading(name)[1]
 
     def compared(self) -> list[str]:
         """The columns a replay predicts: the measured signals, and the input in closed loop."""

@@ -204,7 +204,7 @@ def candidate_json(t: Tried) -> dict:
 
 def noise(replay: Replay, scorer: Scorer) -> dict:
     """Per weighed column: its noise floor, unit, whether it was stated, and the rule it was read by."""
-    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": replay.noise_rule(n)}
+    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": scorer.rules[n]}
             for n, f in scorer.floors.items()}
 
 

@@ -152,10 +152,9 @@ class Scorer:
         self.floors, self.rules = {}, {}
         for n in names:
             y = self.replay.measured(n)
-            nf = self.replay.noise_floor(n)
+            nf, self.rules[n] = self.replay.noise_reading(n)
             # a noiseless (simulated, unquantised) column still needs a finite weight
             self.floors[n] = max(nf, 1e-6 * float(np.sqrt(np.mean(y ** 2))) + 1e-12)
-            self.rules[n] = self.replay.noise_rule(n)
 
     def weighted(self, sim: dict) -> np.ndarray:
         res = self.replay.residuals(sim)
