@@ -108,17 +108,21 @@ def _command_line(plant_file, effects, excitation, duration, sample_time, noise,
 @click.option("--effect", "effects", multiple=True, metavar="'NAME key=value ...'",
               help="A hidden effect, as one quoted string: its name, then its parameters as in a "
                    "plant file (e.g. 'coulomb_friction location=load torque=0.05'). Repeatable.")
-@click.option("--excitation", default="steps", show_default=True, metavar="steps|mixed|profile:N|FILE",
+@click.option("--excitation", default="steps", show_default=True,
+              metavar="steps|mixed|prbs|chirp|multisine|profile:N|FILE",
               help="The open-loop input: 'steps' (levels of 12-100 % of the limit, both directions, "
                    "with rests), 'mixed' (the practice cases' input: steps both ways with pauses and "
                    "direct reversals, low-level steps, three fast reversals, a slow sine period and a "
-                   "triangle ramp, levels and durations jittered +-15 % by the seed), 'profile:N' (the "
+                   "triangle ramp, levels and durations jittered +-15 % by the seed), 'prbs' (+-30 % "
+                   "of the limit, the sign drawn every 40 ms), 'chirp' (a logarithmic sweep, 0.2 Hz to "
+                   "10 Hz or a tenth of the sample rate, peak 35 %), 'multisine' (8 log-spaced sines "
+                   "over that band, random phases, peak 35 %), 'profile:N' (the "
                    "voltage a P controller applied following thesis profile N = 1, 2, 3) or a CSV with "
                    "time_s and one input column.")
 @click.option("--duration", type=float, default=None,
               help="Record length, s [default: 10, mixed 16; a FILE's own length].")
 @click.option("--sample-time", "sample_time", type=float, default=1e-3, show_default=True,
-              help="Sample interval, s (steps, mixed and profile:N).")
+              help="Sample interval, s (all but a FILE).")
 @click.option("--noise", "noise", multiple=True, metavar="SIGNAL=STD",
               help="Noise standard deviation of a signal in its unit [default: 0.01 deg on angles, "
                    "0.005 A on current, 0.001 mm on positions]; all=STD sets every signal. "
@@ -130,7 +134,7 @@ def _command_line(plant_file, effects, excitation, duration, sample_time, noise,
 @click.option("--signal", "signals", multiple=True, metavar="COLUMN",
               help="A measured column to record (repeatable) [default: motor_angle_deg, "
                    "load_angle_deg or load_position_mm, and current_A for a voltage drive].")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the steps or mixed input and of the noise.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the input (steps, mixed, prbs; chirp and multisine phases) and of the noise.")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Measurement CSV to write; the truth goes beside it as <name>.truth.yaml.")
 @click.option("--json", "as_json", is_flag=True,
@@ -182,6 +186,13 @@ def synth(plant_file: Path, effects: tuple[str, ...], excitation: str, duration:
                                       f"{span:g} s" for shape, level, span in S.MIXED],
                             jitter=f"each level and duration x U(1 -+ {S.MIXED_JITTER:g}), durations "
                                    "then scaled to the record's length")
+        elif excitation == "prbs":
+            exc_info.update(sample_time_s=sample_time, seed=seed, clock_s=S.PRBS_CLOCK_S,
+                            levels=f"+-{S.PRBS_LEVEL:g} x {S.input_scale(truth):g} {data.input_unit}")
+        elif excitation in S.NO_RESTS:
+            f0, f1 = S.sweep_band(sample_time)
+            exc_info.update(sample_time_s=sample_time, seed=seed, band_Hz=[f0, f1], fade_s=S.FADE_S,
+                            peak=f"{S.SWEEP_LEVEL:g} x {S.input_scale(truth):g} {data.input_unit}")
         elif excitation.startswith("profile:"):
             ctrl = S.profile_controller(truth)
             exc_info.update(sample_time_s=sample_time, controller={

@@ -16,7 +16,8 @@ engineer would have measured, in the SPEC's measurement format (section 3):
   noise, so that signal gets none;
 * the record starts at rest with the mesh centred in its clearance.
 
-:func:`excitation` makes the inputs (``steps``, ``mixed``, ``profile:N`` or a CSV file)
+:func:`excitation` makes the inputs (``steps``, ``mixed``, ``prbs``, ``chirp``, ``multisine``,
+``profile:N`` or a CSV file)
 and :func:`truth_dict` the record of what was hidden, saved beside the data.
 """
 from __future__ import annotations
@@ -195,6 +196,81 @@ def mixed(plant: Plant, duration_s: float = 16.0, sample_time_s: float = 1e-3,
     return t, u
 
 
+PRBS_LEVEL = 0.3        # +- this fraction of input_scale
+PRBS_CLOCK_S = 0.04     # the sign may flip every clock tick, with probability 1/2
+SWEEP_LEVEL = 0.35      # peak of chirp and multisine, a fraction of input_scale
+SWEEP_HZ = (0.2, 10.0)  # their band, Hz (the top at most a tenth of the sample rate)
+MULTISINE_LINES = 8     # multisine: this many log-spaced frequencies over SWEEP_HZ
+FADE_S = 0.5            # chirp and multisine fade in and out over this long (cosine ramp)
+
+
+def _opening(t: np.ndarray) -> np.ndarray:
+    """True after the :data:`FIRST_REST_S` opening rest."""
+    return t >= FIRST_REST_S - 1e-12
+
+
+def _faded(t: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``u`` (0 in the opening rest) raised from and lowered to 0 over :data:`FADE_S` by a half
+    cosine: an abrupt start of a sweep would be a step."""
+    a, b = FIRST_REST_S, float(t[-1])
+    span = min(FADE_S, 0.25 * (b - a))
+    x = np.clip(np.minimum(t - a, b - t) / span, 0.0, 1.0)
+    return u * 0.5 * (1.0 - np.cos(np.pi * x))
+
+
+def sweep_band(sample_time_s: float) -> tuple[float, float]:
+    """The band of ``chirp`` and ``multisine``, Hz: :data:`SWEEP_HZ`, its top at most a tenth of
+    the sample rate."""
+    return SWEEP_HZ[0], min(SWEEP_HZ[1], 0.1 / sample_time_s)
+
+
+def prbs(plant: Plant, duration_s: float = 10.0, sample_time_s: float = 1e-3,
+         seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A binary pseudo-random input: ``+-PRBS_LEVEL`` times :func:`input_scale`, its sign
+    drawn anew (flipping with probability 1/2) every :data:`PRBS_CLOCK_S`, after the
+    :data:`FIRST_REST_S` opening rest; no rests after it, so the train reverses through its
+    clearance at random and never stands still long.  Returns ``(time_s, input)``."""
+    t = _grid(duration_s, sample_time_s)
+    rng = np.random.default_rng(seed)
+    ticks = np.floor((t - FIRST_REST_S) / PRBS_CLOCK_S + 1e-9).astype(int)
+    signs = np.where(rng.random(max(int(ticks.max()) + 1, 1)) < 0.5, -1.0, 1.0)
+    u = PRBS_LEVEL * input_scale(plant) * signs[np.maximum(ticks, 0)]
+    return t, np.where(_opening(t), u, 0.0)
+
+
+def chirp(plant: Plant, duration_s: float = 10.0, sample_time_s: float = 1e-3,
+          seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A logarithmic sine sweep ``SWEEP_LEVEL input_scale sin(phi(t))`` from ``SWEEP_HZ[0]`` to
+    ``SWEEP_HZ[1]`` (at most a tenth of the sample rate) over the record after its opening rest,
+    faded in and out (:data:`FADE_S`); ``seed`` sets its starting phase.  Returns
+    ``(time_s, input)``."""
+    t = _grid(duration_s, sample_time_s)
+    f0, f1 = sweep_band(sample_time_s)
+    span = max(float(t[-1]) - FIRST_REST_S, sample_time_s)
+    k = math.log(f1 / f0) / span
+    x = np.maximum(t - FIRST_REST_S, 0.0)
+    phase = 2.0 * np.pi * np.random.default_rng(seed).random()
+    u = SWEEP_LEVEL * input_scale(plant) * np.sin(phase + 2.0 * np.pi * f0 * np.expm1(k * x) / k)
+    return t, np.where(_opening(t), _faded(t, u), 0.0)
+
+
+def multisine(plant: Plant, duration_s: float = 10.0, sample_time_s: float = 1e-3,
+              seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A sum of :data:`MULTISINE_LINES` sines at log-spaced frequencies over ``SWEEP_HZ`` (the
+    top at most a tenth of the sample rate), equal amplitudes, random phases from ``seed``,
+    scaled to a peak of ``SWEEP_LEVEL input_scale`` and faded in and out (:data:`FADE_S`) after
+    the opening rest.  Returns ``(time_s, input)``."""
+    t = _grid(duration_s, sample_time_s)
+    f0, f1 = sweep_band(sample_time_s)
+    freqs = np.geomspace(f0, f1, MULTISINE_LINES)
+    phases = 2.0 * np.pi * np.random.default_rng(seed).random(MULTISINE_LINES)
+    x = np.maximum(t - FIRST_REST_S, 0.0)
+    u = np.sin(2.0 * np.pi * np.outer(x, freqs) + phases).sum(axis=1)
+    u = np.where(_opening(t), _faded(t, u), 0.0)
+    peak = float(np.max(np.abs(u)))
+    return t, (SWEEP_LEVEL * input_scale(plant) / peak) * u if peak > 0 else u
+
+
 def profile_controller(plant: Plant) -> Controller:
     """A well-behaved feedback law on the motor-side angle for ``profile:N``.
 
@@ -272,7 +348,7 @@ def read_input_file(path: str | Path, plant: Plant | None = None) -> tuple[np.nd
     the file, the column and the first bad row (data row 1 is file line 2)."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"excitation file '{path}' does not exist (give steps, mixed, profile:N or a CSV "
+        raise ValueError(f"excitation file '{path}' does not exist (give steps, mixed, prbs, chirp, multisine, profile:N or a CSV "
                          "with time_s and one input column)")
     try:
         df = pd.read_csv(path, skipinitialspace=True)
@@ -311,6 +387,10 @@ def read_input_file(path: str | Path, plant: Plant | None = None) -> tuple[np.nd
     return t, cols[name]
 
 
+NO_RESTS = {"prbs": prbs, "chirp": chirp, "multisine": multisine}
+"""The excitations without rests after the opening one, by name."""
+
+
 def excitation(kind: str, plant: Plant, duration_s: float | None = None, sample_time_s: float = 1e-3,
                seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """An open-loop input record ``(time_s, input)`` for ``plant``, input in its unit.
@@ -320,6 +400,9 @@ def excitation(kind: str, plant: Plant, duration_s: float | None = None, sample_
     * ``steps``: :func:`steps`, levels in both directions with rests;
     * ``mixed``: :func:`mixed`, the practice cases' excitation (steps, direct
       and fast reversals, low levels, a slow sine and a triangle ramp);
+    * ``prbs``, ``chirp``, ``multisine``: :func:`prbs`, :func:`chirp`,
+      :func:`multisine`, inputs without steps and rests (a random binary
+      sequence, a logarithmic sweep, a sum of sines);
     * ``profile:N`` (N = 1, 2, 3): :func:`profile_input`, the input a feedback
       law applied following thesis profile N;
     * anything else: a CSV file with ``time_s`` and one input column
@@ -328,12 +411,14 @@ def excitation(kind: str, plant: Plant, duration_s: float | None = None, sample_
     duration_s: record length, s (default 10 s, 16 s for ``mixed``; for a file
     its own length, or the first ``duration_s`` of it when given);
     sample_time_s: sample interval, s (not used for a file); seed: the random
-    draws of ``steps`` and ``mixed``.
+    draws of ``steps``, ``mixed``, ``prbs`` and the phases of ``chirp`` and ``multisine``.
     """
     if kind == "steps":
         return steps(plant, 10.0 if duration_s is None else duration_s, sample_time_s, seed)
     if kind == "mixed":
         return mixed(plant, 16.0 if duration_s is None else duration_s, sample_time_s, seed)
+    if kind in NO_RESTS:
+        return NO_RESTS[kind](plant, 10.0 if duration_s is None else duration_s, sample_time_s, seed)
     if kind.startswith("profile:"):
         num = kind.split(":", 1)[1].strip()
         if num not in ("1", "2", "3"):

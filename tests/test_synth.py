@@ -139,6 +139,43 @@ def test_mixed_excitation_jitters_levels_and_fills_the_duration(rig):
     assert t[-1] == pytest.approx(15.0) and u[-1] == 0.0 and len(holds_of(t, u)) == len(holds_of(*a))
 
 
+@pytest.mark.parametrize("kind", ["prbs", "chirp", "multisine"])
+@pytest.mark.parametrize("dt", [1e-2, 1e-3, 1e-4])
+def test_excitations_without_rests_move_at_every_rate(rig, kind, dt):
+    """prbs, chirp and multisine open with the same rest as steps, then never rest: the input is
+    zero only there (and, faded, at a chirp's or multisine's ends), within its level, and its
+    power lies in the band (0.2 Hz up to 10 Hz or a tenth of the sample rate, at 100 Hz-10 kHz):
+    what a record that is not steps and rests looks like."""
+    t, u = synth.excitation(kind, rig, duration_s=8.0, sample_time_s=dt, seed=3)
+    scale = synth.input_scale(rig)
+    assert t[-1] == pytest.approx(8.0) and np.allclose(np.diff(t), dt)
+    assert np.all(u[t < synth.FIRST_REST_S - 1e-9] == 0.0)
+    inside = (t > synth.FIRST_REST_S + synth.FADE_S) & (t < t[-1] - synth.FADE_S)
+    if kind == "prbs":
+        assert np.allclose(np.abs(u[t >= synth.FIRST_REST_S - 1e-9]), synth.PRBS_LEVEL * scale)
+        flips = np.flatnonzero(np.diff(u[inside]) != 0.0)
+        assert np.all(np.diff(flips) * dt >= synth.PRBS_CLOCK_S - dt - 1e-9)   # only on the clock
+        assert 0.3 < flips.size * synth.PRBS_CLOCK_S / np.ptp(t[inside]) < 0.7  # flips half the ticks
+        return
+    assert np.max(np.abs(u)) == pytest.approx(synth.SWEEP_LEVEL * scale, rel=0.02)
+    assert np.mean(np.abs(u[inside]) < 1e-3 * scale) < 0.02, "no rest"
+    f0, f1 = synth.sweep_band(dt)
+    assert f1 == pytest.approx(min(10.0, 0.1 / dt))
+    spectrum = np.abs(np.fft.rfft(u)) ** 2
+    freq = np.fft.rfftfreq(u.size, dt)
+    assert spectrum[(freq >= 0.5 * f0) & (freq <= 1.5 * f1)].sum() > 0.95 * spectrum.sum()
+
+
+def test_cli_writes_a_sweep_with_its_band(tmp_path):
+    out = tmp_path / "c.csv"
+    res = CliRunner().invoke(main, ["synth", str(RIG), "--excitation", "chirp", "--duration", "3",
+                                    "--sample-time", "0.01", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert read_measurement(out).duration_s == pytest.approx(3.0)
+    exc = yaml.safe_load((tmp_path / "c.truth.yaml").read_text())["excitation"]
+    assert exc["kind"] == "chirp" and exc["band_Hz"] == [0.2, 10.0] and exc["sample_time_s"] == 0.01
+
+
 def test_profile_excitation_is_the_voltage_of_a_p_controller(rig):
     t, u = synth.excitation("profile:1", rig, duration_s=4.0)
     assert len(t) == 4001 and np.all(np.abs(u) <= rig.motor.max_voltage)

@@ -4,6 +4,8 @@ noise floors, the residual tests and the calibration, in one :class:`Diagnosis` 
 climb's last state (``ladder``), writing every sentence there (``explain``)."""
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 from ..plant.components import Plant
@@ -128,7 +130,7 @@ class Diagnosis:
         ``stopped``: why the ladder ended, one of :data:`STOPPED` (``reason`` says it in words).
         ``noise_floors``: per compared column its noise ``floor`` (the residuals' weight), ``unit``,
         whether it was ``stated`` (``Replay.noise_std``) or read from the record, and its ``rule``
-        (``Replay.noise_rule``: ``stated``, or how ``measure.noise.noise_estimate`` read it).
+        (``Replay.noise_rule``), and its ``final_rms`` and ``over_read`` (:func:`noise`).
         ``residual_tests``: per compared column, the final model's residual tests
         (``residuals.ResidualTest``: ``white``, ``input_independent``, ``lag1`` its lag-1
         autocorrelation, ``ljung_box_p``, ``sentence``).
@@ -202,10 +204,36 @@ def candidate_json(t: Tried) -> dict:
     return d
 
 
-def noise(replay: Replay, scorer: Scorer) -> dict:
-    """Per weighed column: its noise floor, unit, whether it was stated, and the rule it was read by."""
-    return {n: {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": scorer.rules[n]}
-            for n, f in scorer.floors.items()}
+def noise(replay: Replay, scorer: Scorer, res: FitResult | None = None, at_noise: float = 1.2) -> dict:
+    """Per weighed column: its noise floor, unit, whether it was stated, and the rule it was read by;
+    with the final model ``res``, the RMS of its residual there (``final_rms``, the column's unit)
+    and whether the floor, read from the record, is ``over_read``: above that RMS by more than
+    ``at_noise`` (the ladder's ``Policy.at_noise``: a model within it of a floor is at it, so one
+    that far below it is not).  No model leaves less than the noise, so such a floor is not the noise's:
+    the record's motion shows in its third differences (a record sampled at 100 Hz, a PRBS's steps
+    in the current), and "at the noise floor" is then an upper bound."""
+    out = {}
+    per = scorer.per_signal(res.sim) if res is not None and res.sim is not None else {}
+    for n, f in scorer.floors.items():
+        out[n] = {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": scorer.rules[n]}
+        if n in per:
+            rss, count = per[n]
+            rms = f * math.sqrt(rss / count)
+            out[n]["final_rms"] = rms
+            out[n]["over_read"] = n not in replay.noise_std and rms * at_noise < f
+    return out
+
+
+def over_read(reason: str, floors: dict) -> str:
+    """``reason`` with a sentence on the floors :func:`noise` found over-read, if any."""
+    high = [f"{n} ({c['final_rms']:.3g} against {c['floor']:.3g} {c['unit']})"
+            for n, c in floors.items() if c.get("over_read")]
+    if not high:
+        return reason
+    return (reason + ". But the final model leaves less than the noise floor read from the record on "
+            + ", ".join(high) + ": those floors are not the noise's (the record's motion shows in its third "
+            "differences at this sample rate), so the floors are an upper bound; state the noise where "
+            "you know it (--noise SIGNAL=STD, --noise-from REST.csv) to test further")
 
 
 def residual_tests(replay: Replay, plant: Plant, res: FitResult) -> dict:
@@ -247,11 +275,13 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
     said = reason(ctx, state)
     if why == "nothing pays" and not ctx.policy.explained(res):
         said = not_driven(said, tests, replay)
+    floors = noise(replay, scorer, None if why == "interrupted" else res, ctx.policy.at_noise)
+    said = over_read(said, floors)
     above = why != "interrupted" and not ctx.policy.explained(res) and res.sim is not None
     missing = missing_torque(replay, res.plant, res.sim, scorer.primary) if above else None
     return Diagnosis(base.error, scorer.noise_floor, replay.unit(scorer.primary), scorer.primary,
                      list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
                      scorer.relative_pct(base.sim),
                      ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
-                     why, noise(replay, scorer), tests, not_tried, ctx.tracker.timing.report(),
+                     why, floors, tests, not_tried, ctx.tracker.timing.report(),
                      replay.data.gaps.to_dict() if replay.data.gaps else None, missing)
