@@ -14,6 +14,7 @@ from .explain import not_driven, reason, rivals, rung_text, simplified_text
 from .fit import FitResult
 from .scoring import Scorer
 from .ladder import CalibrationStep, Context, State, correlated
+from .policy import Policy
 from .missing import MissingTorque, missing_torque
 from .replay import Replay
 from .residuals import DEFAULT_LAGS, replay_residual_tests
@@ -204,16 +205,17 @@ def candidate_json(t: Tried) -> dict:
     return d
 
 
-def noise(replay: Replay, scorer: Scorer, res: FitResult | None = None, at_noise: float = 1.2) -> dict:
+def noise(replay: Replay, scorer: Scorer, res: FitResult | None = None,
+          at_noise: float = Policy.at_noise) -> dict:
     """Per weighed column: its noise floor, unit, whether it was stated, and the rule it was read by;
-    with the final model ``res``, the RMS of its residual there (``final_rms``, the column's unit)
+    with the final model ``res`` (None: interrupted), the RMS of its residual there (``final_rms``, the column's unit)
     and whether the floor, read from the record, is ``over_read``: above that RMS by more than
     ``at_noise`` (the ladder's ``Policy.at_noise``: a model within it of a floor is at it, so one
     that far below it is not).  No model leaves less than the noise, so such a floor is not the noise's:
     the record's motion shows in its third differences (a record sampled at 100 Hz, a PRBS's steps
     in the current), and "at the noise floor" is then an upper bound."""
     out = {}
-    per = scorer.per_signal(res.sim) if res is not None and res.sim is not None else {}
+    per = res.signals if res is not None else {}  # column -> (weighted RSS, n), scored with the fit
     for n, f in scorer.floors.items():
         out[n] = {"floor": f, "unit": replay.unit(n), "stated": n in replay.noise_std, "rule": scorer.rules[n]}
         if n in per:
