@@ -21,12 +21,13 @@ tolerance: the mesh and the inductance act far above a 1 kHz record's band, and
 a clearance is the ``backlash`` effect's to find.
 
 Not every value can be told from a record.  With the voltage as input and only
-an angle measured, the motor is seen through ``k/(R J)`` and ``(k^2/R + b)/J``
-alone: torque constant, resistance, inertia and damping cannot all be
-calibrated.  :func:`plan` asks
+an angle measured, the motor is seen through three combinations, ``k/(J L)``,
+``R/L + b/J`` and ``(b R + k^2)/(J L)`` (``J``, ``b`` at the motor): torque
+constant, resistance, inertia and damping cannot all be calibrated.  :func:`plan` asks
 the record before fitting: at the file's values it takes the sensitivity ``J_j``
-of the noise-weighted residuals to each value (central differences, 0.1 % steps)
-and the standard error the record would give it at its noise floors,
+of the noise-weighted residuals to each value (central differences, 0.1 % steps,
+the replay's angles moved at the seams where the file's values move them, as a fit
+holds them) and the standard error the record would give it at its noise floors,
 ``sigma_j = sqrt((J^T J)^-1_jj)`` (the Cramer-Rao bound), with every other
 value gearbench can fit (the inductance, the mesh, the backlash: never exact
 either) free beside it, so that a value told apart from the others only by an
@@ -34,10 +35,8 @@ exactly known inductance or mesh does not count as resolved.  A value whose
 ``sigma_j`` exceeds :data:`RESOLVE` of its tolerance half-width is held at the
 file's value: the record does not pin it down better than the datasheet does.
 The report says which were held, why, and the value each trades off with most
-(the combination the record does see).  With only the output angle measured the
-bench rig's resistance, inertias and dampings are held, and the motor constant
-alone is calibrated: they move the angle only through ``R J`` and ``R b``
-(``tests/test_calibration.py``).
+(the combination the record does see).  With only the output angle measured none
+of the bench rig's six values is calibrated (``tests/test_calibration.py``).
 """
 from __future__ import annotations
 
@@ -157,8 +156,12 @@ def plan(plant: Plant, replay: Replay, scorer: Scorer) -> Plan:
     nuisance = [Free.plant(plant, path) for path in _others(plant, tol)]
     x0 = np.array([param_value(plant, f) for f in frees + nuisance])
     try:
-        jac = central_jacobian(lambda x: scorer.weighted(replay.run(set_values(plant, frees + nuisance, x))),
-                               x0, STEP * x0) * x0  # per relative change: better conditioned
+        # A reset that flipped between two steps 0.1 % apart would read as sensitivity: on the
+        # bench rig with only the output angle it made the motor constant look resolved.
+        seams = replay.run(plant).seams
+        jac = central_jacobian(
+            lambda x: scorer.weighted(replay.run(set_values(plant, frees + nuisance, x), seams=seams)),
+            x0, STEP * x0) * x0  # per relative change: better conditioned
     except ReplayError as exc:
         p.held = [(f, f"not calibrated: the plant does not simulate 0.1 % away from the file's values ({exc})")
                   for f in frees]
