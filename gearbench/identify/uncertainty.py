@@ -174,6 +174,13 @@ STRONG_CORRELATION = 0.9
 ``correlations``): past it the two trade off so that each one's standard error alone misleads."""
 
 
+def strongly_correlated(rho: np.ndarray) -> bool:
+    """Whether any two estimates correlate beyond :data:`STRONG_CORRELATION` (``rho`` a correlation
+    matrix; NaN entries do not count)."""
+    off = np.abs(np.asarray(rho, dtype=float)) - np.eye(len(rho))
+    return bool(np.any(np.nan_to_num(off, nan=0.0) > STRONG_CORRELATION))
+
+
 def strong_correlations(correlation: dict, threshold: float = STRONG_CORRELATION) -> list[tuple[str, str, float]]:
     """``(a, b, rho)`` for each pair of parameters (``a`` before ``b``) of ``correlation``
     (name -> name -> rho) with ``|rho| > threshold``."""
