@@ -81,3 +81,16 @@ def test_the_tutorials_fits_coverage():
     low = {n: v for n, v in t["coverage"].items() if v < 0.9}
     assert not low, f"coverage below 90 %: {low} (rms z {t['rms_z']})"
     assert all(math.isfinite(v) for r in t["fits"] for v in r["stderr"].values())
+
+
+def test_strongly_correlated_looks_past_the_diagonal_and_ignores_nan():
+    """Which fits take their errors' Jacobian again (``fit._sharp_jacobian``): any pair beyond
+    ``STRONG_CORRELATION``, either sign; the diagonal's ones and NaN (a singular pair) do not count."""
+    rho = np.eye(3)
+    assert not U.strongly_correlated(rho)
+    rho[0, 2] = rho[2, 0] = -(U.STRONG_CORRELATION + 0.01)
+    assert U.strongly_correlated(rho)
+    rho[0, 2] = rho[2, 0] = U.STRONG_CORRELATION
+    assert not U.strongly_correlated(rho)
+    rho[1, 2] = rho[2, 1] = math.nan
+    assert not U.strongly_correlated(rho)
