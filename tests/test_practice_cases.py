@@ -216,11 +216,11 @@ def final_model_fit(d, data):
     """The diagnosis' final model refitted from where it ended (its effects' parameters free): the
     values with their standard errors, as ``gearbench fit`` would give them."""
     import gearbench as gb
-    from gearbench.identify.fit import Free, fit
+    from gearbench.identify.fit import fit
+    from gearbench.identify.refit import frees_of
     from gearbench.identify.scoring import Scorer
     replay = Replay(gb.load_measurement(data))
-    frees = [f for i in range(len(d.plant.effects)) for f in Free.effect(d.plant, i, replay.data.sample_time_s)]
-    return fit(replay, d.plant, frees, Scorer(replay))
+    return fit(replay, d.plant, frees_of(replay, d.plant, (), range(len(d.plant.effects))), Scorer(replay))
 
 
 def test_diagnose_finds_a_spring_and_a_dry_friction_together():
@@ -318,6 +318,7 @@ def test_each_calibrated_value_and_the_spring_lie_within_four_standard_errors_of
     5.6 standard errors away (measured 2026-11-29, before; now 2.0 and 2.3)."""
     from gearbench.identify import calibration
     from gearbench.identify.fit import Free, fit, param_value
+    from gearbench.identify.refit import frees_of
     from gearbench.identify.scoring import Scorer
     import gearbench as gb
     truth, data, d = p04_excerpt
@@ -328,8 +329,7 @@ def test_each_calibrated_value_and_the_spring_lie_within_four_standard_errors_of
         assert row["status"] == "calibrated" and abs(row["value"] - want) <= 4 * row["stderr"], (label, row, want)
     replay = Replay(gb.load_measurement(data))
     scorer = Scorer(replay)
-    frees = calibration.plan(d.plant, replay, scorer).frees + Free.effect(d.plant, 0, replay.data.sample_time_s)
-    joint = fit(replay, d.plant, frees, scorer)
+    joint = fit(replay, d.plant, frees_of(replay, d.plant, calibration.plan(d.plant, replay, scorer).frees, [0]), scorer)
     got = joint.params["effects[0].stiffness"]
     assert joint.converged and abs(got.value - 0.6) <= 4 * got.stderr, got
 

@@ -397,6 +397,12 @@ class _Trials:
     failures: list = field(default_factory=list)
     size: int | None = None  # the residual's length, once a replay has run
 
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The frees' bounds in the fit coordinates ``z``."""
+        return (np.array([f.low for f in self.frees]) / self.scales,
+                np.array([f.high for f in self.frees]) / self.scales)
+
     def residual(self, z, seams: tuple) -> np.ndarray:
         """The weighted residual at ``z``, the replay's angles moved at exactly ``seams``."""
         try:
@@ -468,12 +474,10 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
         return evaluate(replay, scorer, plant)
     x0 = np.array(start if start is not None else [get_value(plant, f) for f in frees], dtype=float)
     sc = np.array([f.scale for f in frees])
-    lo = np.array([f.low for f in frees]) / sc
-    hi = np.array([f.high for f in frees]) / sc
-    z0 = np.clip(x0 / sc, lo, hi)
     trials = _Trials(replay, scorer, plant, frees, sc)
+    z0 = np.clip(x0 / sc, *trials.bounds)
     try:
-        res, nfev, rounds = _rounds(trials, z0, (lo, hi), central, max_nfev or 40 * (len(frees) + 1), restarts,
+        res, nfev, rounds = _rounds(trials, z0, trials.bounds, central, max_nfev or 40 * (len(frees) + 1), restarts,
                                     rounds_below)
     except ValueError as exc:
         return FitResult(plant, {}, math.nan, math.nan, 0, len(frees), False,
@@ -526,11 +530,9 @@ def _sharp_jacobian(trials: _Trials, z: np.ndarray, r: np.ndarray, seams: tuple,
     if not np.all(np.isfinite(first_stderr)) or np.any(first_stderr <= 0.0):
         return None
     step = np.minimum(np.abs(fd_step(z)), SHARP_STEP * first_stderr)
-    lo = np.array([f.low for f in trials.frees]) / trials.scales
-    hi = np.array([f.high for f in trials.frees]) / trials.scales
     failed = len(trials.failures)
     jac = approx_derivative(partial(trials.residual, seams=seams), z, method="3-point", abs_step=step,
-                            f0=r, bounds=(lo, hi))
+                            f0=r, bounds=trials.bounds)
     return jac if len(trials.failures) == failed and np.all(np.isfinite(jac)) else None
 
 
@@ -549,7 +551,8 @@ def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
     # res.jac is in the scaled coordinates z = u / scale; the errors are of the parameters' own values
     jac = own_jacobian(res.jac / sc, frees)
     names = [f.name for f in frees]
-    cov = U.covariance(jac, w, len(objective_signals(replay)))
+    m = len(objective_signals(replay))
+    cov = U.covariance(jac, w, m)
     stderr = U.standard_errors(cov)
     rho = U.correlation(cov)
     if res.status > 0 and U.strongly_correlated(rho):
@@ -557,7 +560,7 @@ def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
         if sharp is not None:
             nfev += 2 * k
             jac = own_jacobian(sharp / sc, frees)
-            cov = U.covariance(jac, w, len(objective_signals(replay)))
+            cov = U.covariance(jac, w, m)
             stderr, rho = U.standard_errors(cov), U.correlation(cov)
     white = U.standard_errors(U.white_covariance(jac, w))
     converged = res.status > 0
