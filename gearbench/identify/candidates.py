@@ -18,7 +18,7 @@ from ..plant.components import Plant
 from ..plant.effects import REGISTRY, AddedEffect
 from .executor import Executor
 from ..errors import FitError, NotConverged, ReplayError
-from .fit import Free, FitResult, evaluate, fit, get_value
+from .fit import Free, FitResult, evaluate, fit, get_value, set_values
 from .scoring import Scorer, signal_evidence
 from .refit import best_fit, frees_of
 from .replay import Replay
@@ -225,7 +225,8 @@ def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
             res = fit(replay, with_it, frees, scorer, **options)
         else:
             points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
-                                      [get_value(with_it, f) for f in frees])
+                                      [get_value(with_it, f) for f in frees],
+                                      guesses=guess_points(replay, with_it, len(with_it.effects) - 1, frees))
             res = best_fit([fit(replay, with_it, frees, scorer, start=list(x), **options) for x in points])
             res = replace(res, k=res.k + len(est or {}))
     except (ReplayError, ValueError) as exc:
@@ -233,6 +234,25 @@ def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     if not res.converged:
         return Tried(cand, res, note=res.message)
     return as_tried(cand, res)
+
+
+def guess_points(replay: Replay, plant: Plant, i: int, frees: list[Free]) -> list[list[float]]:
+    """``frees``' fit coordinates at each of the values effect ``i`` of ``plant`` reads from the
+    record (``Effect.guesses``), the rest as in ``plant``; a guess's keys with a dot are plant
+    values (``motor.inertia``), and a guess that sets one ``frees`` does not free is left out."""
+    e = plant.effects[i]
+    free = {f.key: f for f in frees if f.index is None}
+    out = []
+    for g in e.effect.guesses(plant, replay.data):
+        held = {k: v for k, v in g.items() if "." in k}
+        if any(k not in free for k in held):
+            continue
+        p = set_values(plant, [free[k] for k in held], list(held.values()))
+        effects = list(p.effects)
+        effects[i] = AddedEffect(e.name, {**e.values, **{k: v for k, v in g.items() if "." not in k}})
+        p = replace(p, effects=tuple(effects))
+        out.append([get_value(p, f) for f in frees])
+    return out
 
 
 def run_candidate(args) -> Tried:
@@ -312,7 +332,8 @@ def fit_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
     mine = Free.effect(both, n, dt) + Free.effect(both, n + 1, dt)
     frees = mine + frees_of(replay, both, free_plant, refit)
     try:
-        points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees])
+        points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees],
+                                  guesses=guess_points(replay, both, n, frees) + guess_points(replay, both, n + 1, frees))
         alone = min(t.result.rss for t in (first, second))
         res = best_fit([fit(replay, both, frees, scorer, start=list(x), rounds_below=alone) for x in points])
     except (ReplayError, ValueError) as exc:

@@ -148,13 +148,16 @@ def scan_on(workers, replay: Replay, scorer: Scorer, plant, frees: list[Free], p
 
 
 def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: int, start,
-           n: int | None = None) -> tuple[list[np.ndarray], int]:
+           n: int | None = None, guesses=()) -> tuple[list[np.ndarray], int]:
     """Where the local fits start, best first, and the number of replays the scan cost.
 
     The first ``scanned`` of ``frees`` (the candidate's own parameters) are scanned, the rest
-    stay at ``start`` (fit coordinates of every free), which is itself one of the points."""
+    stay at ``start`` (fit coordinates of every free), which is itself one of the points, as is
+    each of ``guesses`` (fit coordinates of every free: values read from the record,
+    ``Effect.guesses``), clipped to the bounds."""
     start = np.asarray(start, dtype=float)
     pts = sobol_points(frees[:scanned], n) if scanned else np.empty((0, 0))
-    points = [start] + list(around(start, pts))
+    low, high = (np.array([getattr(f, side) for f in frees]) for side in ("low", "high"))
+    points = [start] + [np.clip(np.asarray(g, dtype=float), low, high) for g in guesses] + list(around(start, pts))
     ranked = [x for _, x in scan(replay, scorer, plant, frees, points)]
     return distinct(ranked, frees[:scanned], LOCAL_STARTS) or [start], len(points)

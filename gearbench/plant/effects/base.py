@@ -204,6 +204,13 @@ class Effect:
         least-squares fit cannot move (integer counts); None = fit instead."""
         return None
 
+    def guesses(self, plant, record) -> list[dict]:
+        """Values of this effect's parameters read from ``record`` (a
+        :class:`~gearbench.measure.data.Measurement`) for ``plant``, which diagnose's scan
+        tries beside its own points (one replay each; a local fit starts from one only where it
+        ranks among the scan's best); none by default."""
+        return []
+
     def simpler(self, values: dict) -> tuple[str, dict] | None:
         """A nested simpler effect (fewer parameters) this one reduces to, as
         ``(name, values)`` from these values; None when there is none."""
