@@ -94,3 +94,30 @@ def test_strongly_correlated_looks_past_the_diagonal_and_ignores_nan():
     assert not U.strongly_correlated(rho)
     rho[1, 2] = rho[2, 1] = math.nan
     assert not U.strongly_correlated(rho)
+
+
+def test_sharpening_later_gives_the_fits_own_sharpened_errors():
+    """A multi-start fits each start with ``sharp=False`` and sharpens only the fit it keeps
+    (``fit.sharpen``): that must be exactly the fit's own answer, not an approximation of it.
+    The rotor's and the load's inertias trade off along the reflected inertia the motor drives."""
+    from gearbench.experiment.files import load_plant
+    from gearbench.identify.fit import Free, fit, sharpen
+    from gearbench.identify.replay import Replay
+    from gearbench.identify.scoring import Scorer
+    from gearbench.synth import excitation, synthesize
+    from conftest import REPO
+
+    plant = load_plant(REPO / "experiments" / "plants" / "bench_rig.yaml")
+    t, u = excitation("mixed", plant, duration_s=2.0, seed=5)
+    replay = Replay(synthesize(plant, [], t, u, noise={"motor_angle_deg": 0.02, "current_A": 0.008}, seed=5,
+                               signals=["motor_angle_deg", "current_A"]))
+    scorer = Scorer(replay)
+    frees = [Free.plant(plant, "motor.inertia"), Free.plant(plant, "load.inertia")]
+    start = [plant.motor.inertia * 1.1, plant.load.inertia * 0.9]
+    sharp = fit(replay, plant, frees, scorer, start=start)
+    first = fit(replay, plant, frees, scorer, start=start, sharp=False)
+    assert sharp.converged and abs(first.correlation["motor.inertia"]["load.inertia"]) > U.STRONG_CORRELATION
+    assert first.unsharp is not None and sharpen(replay, scorer, first).unsharp is None
+    later = sharpen(replay, scorer, first)
+    assert later.values == sharp.values and later.stderr == sharp.stderr and later.nfev == sharp.nfev
+    assert later.correlation == sharp.correlation and later.stderr != first.stderr

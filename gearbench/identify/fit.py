@@ -212,6 +212,9 @@ class FitResult:
     seams: tuple = ()  # the window seams (first samples) at which its replay moved the angles (ReplayRun.seams)
     noise: dict = field(default_factory=dict)  # column -> scoring.NoiseModel of its weighted residual
     rescored: dict = field(default_factory=dict, repr=False, compare=False)  # seams -> the plant scored there
+    # (the plant fitted from, its end in fit coordinates) of a fit whose standard errors are still the
+    # first estimate's where estimates trade off (fit(sharp=False)); None once sharpened or not needed
+    unsharp: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def values(self) -> dict:
@@ -433,7 +436,7 @@ class _Trials:
 
 def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None = None,
         max_nfev: int | None = None, start: list[float] | None = None, central: bool = False,
-        restarts: int = 0, rounds_below: float | None = None) -> FitResult:
+        restarts: int = 0, rounds_below: float | None = None, sharp: bool = True) -> FitResult:
     """Fit ``frees`` of ``plant`` to the replayed record.
 
     ``central``: the Jacobian by central differences (twice the simulations per step).  The
@@ -464,6 +467,10 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     this many, while a round lowers the RSS by more than :data:`RESTART_GAIN` (a fresh trust
     region after a kink of the replay: an impact, a breakaway).
 
+    ``sharp``: where estimates trade off, the standard errors are taken again at the end
+    (:func:`sharpen`, 2k replays); False leaves them the first estimate's, for the caller to
+    sharpen the fit it keeps (a multi-start's best, a calibration it accepts).
+
     A fit that does not converge comes back with ``converged`` False and the
     plant as given (unchanged), and says why in ``message``.
     """
@@ -482,7 +489,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     except ValueError as exc:
         return FitResult(plant, {}, math.nan, math.nan, 0, len(frees), False,
                          f"the fit could not run: {exc}", 0)
-    return _result(trials, res, nfev, rounds)
+    return _result(trials, res, nfev, rounds, sharp)
 
 
 def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts: int,
@@ -536,9 +543,10 @@ def _sharp_jacobian(trials: _Trials, z: np.ndarray, r: np.ndarray, seams: tuple,
     return jac if len(trials.failures) == failed and np.all(np.isfinite(jac)) else None
 
 
-def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
+def _result(trials: _Trials, res, nfev: int, rounds: int, sharp: bool = True) -> FitResult:
     """The :class:`FitResult` of the least squares' end ``res``: the fitted plant scored by the
-    replay's own resets, its standard errors and correlations."""
+    replay's own resets, its standard errors and correlations (sharpened where estimates trade
+    off, :func:`sharpen`, unless ``sharp`` is False)."""
     replay, scorer, plant, frees, sc = trials.replay, trials.scorer, trials.plant, trials.frees, trials.scales
     fitted = set_values(plant, frees, res.x * sc)
     try:
@@ -547,30 +555,47 @@ def _result(trials: _Trials, res, nfev: int, rounds: int) -> FitResult:
         return FitResult(plant, {}, math.nan, math.nan, 0, len(frees), False,
                          f"the fitted plant does not simulate: {exc}", nfev)
     w = scorer.weighted(sim)
-    rss, n, k = float(w @ w), w.size, len(frees)
     # res.jac is in the scaled coordinates z = u / scale; the errors are of the parameters' own values
-    jac = own_jacobian(res.jac / sc, frees)
-    names = [f.name for f in frees]
-    m = len(objective_signals(replay))
-    cov = U.covariance(jac, w, m)
-    stderr = U.standard_errors(cov)
-    rho = U.correlation(cov)
-    if res.status > 0 and U.strongly_correlated(rho):
-        sharp = _sharp_jacobian(trials, res.x, w, sim.seams, stderr / sc)
-        if sharp is not None:
-            nfev += 2 * k
-            jac = own_jacobian(sharp / sc, frees)
-            cov = U.covariance(jac, w, m)
-            stderr, rho = U.standard_errors(cov), U.correlation(cov)
-    white = U.standard_errors(U.white_covariance(jac, w))
+    params, rho = _params(replay, fitted, frees, own_jacobian(res.jac / sc, frees), w)
     converged = res.status > 0
     msg = res.message if converged else f"did not converge: {res.message}"
     if rounds:
         msg += f" (restarted {rounds}x)"
     if trials.failures and converged:
         msg += f" ({len(trials.failures)} trial simulation(s) failed on the way)"
-    params = {f.name: Parameter(f, param_value(fitted, f), float(stderr[i]), float(white[i]),
-                                {b: float(rho[i, j]) for j, b in enumerate(names)}) for i, f in enumerate(frees)}
-    return FitResult(fitted if converged else plant, params, scorer.error(sim), rss, n, k,
-                     converged, msg, nfev, sim, scorer.per_signal(sim), seams=sim.seams,
-                     noise=scorer.noise_models(sim))
+    out = FitResult(fitted if converged else plant, params, scorer.error(sim), float(w @ w), w.size, len(frees),
+                    converged, msg, nfev, sim, scorer.per_signal(sim), seams=sim.seams,
+                    noise=scorer.noise_models(sim),
+                    unsharp=(plant, res.x.copy()) if converged and U.strongly_correlated(rho) else None)
+    return sharpen(replay, scorer, out) if sharp else out
+
+
+def _params(replay: Replay, fitted: Plant, frees: list[Free], jac: np.ndarray, w: np.ndarray) -> tuple[dict, np.ndarray]:
+    """The :class:`Parameter` of each free at ``fitted`` from the Jacobian ``jac`` of the weighted
+    residual ``w`` in the parameters' own values, and their correlation matrix."""
+    cov = U.covariance(jac, w, len(objective_signals(replay)))
+    stderr, rho = U.standard_errors(cov), U.correlation(cov)
+    white = U.standard_errors(U.white_covariance(jac, w))
+    names = [f.name for f in frees]
+    return {f.name: Parameter(f, param_value(fitted, f), float(stderr[i]), float(white[i]),
+                              {b: float(rho[i, j]) for j, b in enumerate(names)}) for i, f in enumerate(frees)}, rho
+
+
+def sharpen(replay: Replay, scorer: Scorer, res: FitResult) -> FitResult:
+    """``res`` with the standard errors of a fit whose estimates trade off (a correlation beyond
+    ``uncertainty.STRONG_CORRELATION``) taken again by :func:`_sharp_jacobian` (2k replays for k
+    values, counted in ``nfev``); ``res`` itself when they need not be or already were (the
+    first estimate's, if a replay there fails).  ``fit`` does it unless told ``sharp=False``: a
+    multi-start's fits each skip it, and only the one kept pays for it."""
+    if res.unsharp is None:
+        return res
+    plant, z = res.unsharp
+    frees = [p.free for p in res.params.values()]
+    sc = np.array([f.scale for f in frees])
+    w = scorer.weighted(res.sim)
+    first = np.array([p.stderr for p in res.params.values()]) / sc
+    sharp = _sharp_jacobian(_Trials(replay, scorer, plant, frees, sc, size=w.size), z, w, res.seams, first)
+    if sharp is None:
+        return replace(res, unsharp=None)
+    params, _ = _params(replay, res.plant, frees, own_jacobian(sharp / sc, frees), w)
+    return replace(res, params=params, nfev=res.nfev + 2 * len(frees), unsharp=None)

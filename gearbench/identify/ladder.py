@@ -26,7 +26,7 @@ from ..plant.effects import AddedEffect
 from . import calibration, search
 from .candidates import Pair, Trial, Tried, candidates, fit_each, pair_jobs, rank, run_jobs, run_pair
 from .executor import Executor
-from .fit import FitResult, Free, get_value, plant_frees
+from .fit import FitResult, Free, get_value, plant_frees, sharpen
 from .scoring import Scorer, bic_drop
 from .policy import Policy
 from .progress import Tracker
@@ -391,6 +391,7 @@ def _calibration(ctx: Context, state: State, best: Tried | None, added: tuple[in
     if cal is None or not accepts(ctx.scorer, model, cal) or not (
             best is None or not accepts(ctx.scorer, model, best.result) or cal.bic <= best.result.bic):
         return None
+    cal = sharpen(ctx.replay, ctx.scorer, cal)
     return replace(state, model=cal, calibration=CalibrationStep(len(state.rungs), model, cal),
                    refitted=state.refitted + tuple(ctx.plan.frees))
 
@@ -422,6 +423,7 @@ def _along_the_valley(ctx: Context, state: State, number: int) -> State | None:
     ctx.tracker.timing.add_here(spent)
     if not got.converged or got.rss >= model.rss:
         return None
+    got = sharpen(ctx.replay, ctx.scorer, got)
     effects, values = _model(got.plant, state.refitted)
     rung = replace(state.rungs[-1], result=got, model=effects, plant_params=values)
     return replace(state, rungs=state.rungs[:-1] + (rung,), model=got)
@@ -432,7 +434,8 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     ``added`` (``refit``, central differences, restarts), from the model's values; where that
     pays (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors,
     also from the best points of a scan of the tolerance box (``calibration.starts``), fitted where
-    ``ctx.workers`` runs them (in parallel), the best fit kept.  On 8 s of the bench rig with p04's
+    ``ctx.workers`` runs them (in parallel), the best fit kept, its standard errors not yet
+    sharpened (``fit.sharpen``: :func:`_calibration` sharpens the one it accepts).  On 8 s of the bench rig with p04's
     datasheet errors and Coulomb friction hidden at the load, fitted with the friction: from the
     file's values 25.9x the noise floors (load inertia 0.00545 kg m^2 for 0.006), from the scan's
     best points 2.07x, the truth 0.99x; in the ladder, after a pair with a load spring, 0.988x
@@ -440,7 +443,7 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     replay, scorer, policy, model = ctx.replay, ctx.scorer, ctx.policy, res.plant
     cal_frees: list[Free] = ctx.plan.frees
     cal = refit(replay, scorer, model, tuple(free_plant) + tuple(cal_frees), added, central=True,
-                restarts=policy.calibration_restarts)
+                restarts=policy.calibration_restarts, sharp=False)
     if cal is None or policy.explained(cal) or not policy.accepts(scorer, res, cal):
         return cal
     frees = frees_of(replay, model, tuple(cal_frees) + tuple(free_plant), added)
@@ -467,12 +470,14 @@ def removals(replay: Replay, scorer: Scorer, policy: Policy, res: FitResult, fir
         options = []
         for i in range(first, len(res.plant.effects)):
             effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
-            r = refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)))
+            r = refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)),
+                      sharp=False)
             if r is not None and not policy.accepts(scorer, r, res):
                 options.append((bic_drop(scorer, r, res), i, r))
         if not options:
             break
         gain, i, r = min(options, key=lambda o: o[0])
+        r = sharpen(replay, scorer, r)
         out.append((res.plant.effects[i], r, gain))
         res = r
     return out

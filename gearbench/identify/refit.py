@@ -18,14 +18,14 @@ def frees_of(replay, plant: Plant, free_plant, effects) -> list[Free]:
 
 
 def refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = False,
-          restarts: int = 0) -> FitResult | None:
+          restarts: int = 0, sharp: bool = True) -> FitResult | None:
     """``plant`` with the free plant values ``free_plant`` (paths or ``Free``s) and the parameters
     of the effects numbered in ``effects`` fitted jointly (scored as it is when there are none);
-    None when it cannot be simulated or does not converge.  ``central``, ``restarts``: see
-    :func:`gearbench.identify.fit.fit`."""
+    None when it cannot be simulated or does not converge.  ``central``, ``restarts``, ``sharp``:
+    see :func:`gearbench.identify.fit.fit`."""
     frees = frees_of(replay, plant, free_plant, effects)
     try:
-        r = (fit(replay, plant, frees, scorer, central=central, restarts=restarts) if frees
+        r = (fit(replay, plant, frees, scorer, central=central, restarts=restarts, sharp=sharp) if frees
              else evaluate(replay, scorer, plant))
     except (ReplayError, ValueError):
         return None
