@@ -435,11 +435,11 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     pays (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors,
     also from the best points of a scan of the tolerance box (``calibration.starts``), fitted where
     ``ctx.workers`` runs them (in parallel), the best fit kept, its standard errors not yet
-    sharpened (``fit.sharpen``: :func:`_calibration` sharpens the one it accepts).  On 8 s of the bench rig with p04's
-    datasheet errors and Coulomb friction hidden at the load, fitted with the friction: from the
-    file's values 25.9x the noise floors (load inertia 0.00545 kg m^2 for 0.006), from the scan's
-    best points 2.07x, the truth 0.99x; in the ladder, after a pair with a load spring, 0.988x
-    (``tests/test_datasheet.py``)."""
+    sharpened (``fit.sharpen``: :func:`_calibration` sharpens the one it accepts).  On 8 s of the
+    bench rig with p04's datasheet errors and Coulomb friction hidden at the load, fitted with the
+    friction: from the file's values 25.9x the noise floors (load inertia 0.00545 kg m^2 for
+    0.006), from the scan's best points 2.07x, the truth 0.99x; in the ladder, after a pair with a
+    load spring, 0.988x (``tests/test_datasheet.py``)."""
     replay, scorer, policy, model = ctx.replay, ctx.scorer, ctx.policy, res.plant
     cal_frees: list[Free] = ctx.plan.frees
     cal = refit(replay, scorer, model, tuple(free_plant) + tuple(cal_frees), added, central=True,

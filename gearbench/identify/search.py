@@ -158,6 +158,7 @@ def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: in
     start = np.asarray(start, dtype=float)
     pts = sobol_points(frees[:scanned], n) if scanned else np.empty((0, 0))
     low, high = (np.array([getattr(f, side) for f in frees]) for side in ("low", "high"))
-    points = [start] + [np.clip(np.asarray(g, dtype=float), low, high) for g in guesses] + list(around(start, pts))
+    guessed = [np.clip(np.asarray(g, dtype=float), low, high) for g in guesses]
+    points = [start] + guessed + list(around(start, pts))
     ranked = [x for _, x in scan(replay, scorer, plant, frees, points)]
     return distinct(ranked, frees[:scanned], LOCAL_STARTS) or [start], len(points)
