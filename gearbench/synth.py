@@ -85,7 +85,7 @@ def input_scale(plant: Plant, hold_s: float = 0.5) -> float:
     p = plant.resolved()
     n = p.gear.ratio
     theta = math.pi if p.leadscrew is None else 20e-3 / p.leadscrew.radius  # output rad
-    j = p.motor_inertia_total + p.output_inertia / n ** 2
+    j = p.driven_inertia
     b = p.motor.damping + p.output_damping / n ** 2
     torque = j * 2.0 * theta * n / hold_s ** 2 + b * theta * n / hold_s
     return torque / p.drive_gain
@@ -285,7 +285,7 @@ def profile_controller(plant: Plant) -> Controller:
     """
     p = plant.resolved()
     n = p.gear.ratio
-    j = p.motor_inertia_total + p.output_inertia / n ** 2
+    j = p.driven_inertia
     b = p.motor.damping + p.output_damping / n ** 2
     zeta = 0.7
     if p.drive == "voltage":

@@ -4,8 +4,9 @@ loads, and says what data/cases/README.md says it does; the true plant replays e
 its noise, p05-p13's real sensors (coloured noise, no load angle, 250 Hz, quantized encoders, an
 offset) and other plants and excitations too; diagnose on excerpts of p02 (a spring and a dry
 friction), p04 (datasheet values off and a spring), p05 (coloured noise), p06 (p02's effects
-without the load angle), p09 (a backlash seen from the motor side only) and p13 (null, quantized, an offset) takes what is there and nothing more;
-and (slow) what diagnose makes of p01-p04 is the truth."""
+without the load angle), p09 (a backlash seen from the motor side only) and p13 (null, quantized,
+an offset) takes what is there and nothing more; and (slow) what diagnose makes of p01-p04 is
+the truth."""
 from __future__ import annotations
 
 import math

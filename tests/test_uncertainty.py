@@ -117,7 +117,7 @@ def test_sharpening_later_gives_the_fits_own_sharpened_errors():
     sharp = fit(replay, plant, frees, scorer, start=start)
     first = fit(replay, plant, frees, scorer, start=start, sharp=False)
     assert sharp.converged and abs(first.correlation["motor.inertia"]["load.inertia"]) > U.STRONG_CORRELATION
-    assert first.unsharp is not None and sharpen(replay, scorer, first).unsharp is None
     later = sharpen(replay, scorer, first)
+    assert first.unsharp is not None and later.unsharp is None
     assert later.values == sharp.values and later.stderr == sharp.stderr and later.nfev == sharp.nfev
     assert later.correlation == sharp.correlation and later.stderr != first.stderr

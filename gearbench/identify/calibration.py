@@ -48,7 +48,7 @@ import numpy as np
 from ..blas import single_threaded
 from ..errors import ReplayError
 from ..plant.components import FITTABLE, Plant
-from .fit import FitResult, Free, fit, get_value, param_value, set_values
+from .fit import FitResult, Free, bounds_of, fit, get_value, param_value, set_values
 from .scoring import Scorer
 from .replay import Replay
 from . import search
@@ -210,7 +210,7 @@ def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], cali
     one (module docstring of ``tests/test_datasheet.py``).  ``workers``: an
     :class:`~gearbench.identify.executor.Executor` the scan's points are spread over
     (:func:`search.scan_on`, each chunk's cost given to ``spent``); without it, here."""
-    low, high = (np.array([getattr(f, side) for f in frees[:calibrated]]) for side in ("low", "high"))
+    low, high = bounds_of(frees[:calibrated])
     points = search.around([get_value(plant, f) for f in frees],
                            low + search.unit_points(calibrated, n) * (high - low))
     ranked = (search.scan(replay, scorer, plant, frees, points) if workers is None

@@ -101,6 +101,11 @@ class Free:
         return out
 
 
+def bounds_of(frees: list[Free]) -> tuple[np.ndarray, np.ndarray]:
+    """The lower and upper bounds of ``frees``, in their own units."""
+    return np.array([f.low for f in frees]), np.array([f.high for f in frees])
+
+
 def plant_frees(plant: Plant, items) -> list[Free]:
     """Free plant parameters from ``items``: paths (``--free``: bounded below only) or
     :class:`Free` objects as they are (calibration's, bounded by their tolerances)."""
@@ -403,8 +408,8 @@ class _Trials:
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The frees' bounds in the fit coordinates ``z``."""
-        return (np.array([f.low for f in self.frees]) / self.scales,
-                np.array([f.high for f in self.frees]) / self.scales)
+        low, high = bounds_of(self.frees)
+        return low / self.scales, high / self.scales
 
     def residual(self, z, seams: tuple) -> np.ndarray:
         """The weighted residual at ``z``, the replay's angles moved at exactly ``seams``."""

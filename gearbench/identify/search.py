@@ -27,7 +27,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from ..errors import ReplayError
-from .fit import Free, set_values
+from .fit import Free, bounds_of, set_values
 from .scoring import Scorer
 from .replay import Replay
 from .timing import Cost, costed
@@ -157,7 +157,7 @@ def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: in
     ``Effect.guesses``), clipped to the bounds."""
     start = np.asarray(start, dtype=float)
     pts = sobol_points(frees[:scanned], n) if scanned else np.empty((0, 0))
-    low, high = (np.array([getattr(f, side) for f in frees]) for side in ("low", "high"))
+    low, high = bounds_of(frees)
     guessed = [np.clip(np.asarray(g, dtype=float), low, high) for g in guesses]
     points = [start] + guessed + list(around(start, pts))
     ranked = [x for _, x in scan(replay, scorer, plant, frees, points)]

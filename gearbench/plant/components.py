@@ -137,6 +137,12 @@ class Plant:
         return self.motor.inertia + (self.shaft.pinion_inertia if self.shaft else 0.0)
 
     @property
+    def driven_inertia(self) -> float:
+        """The inertia the motor drives, at the motor: rotor, pinion and the output's reflected
+        (``J_m + J_out / N^2``), kg m^2."""
+        return self.motor_inertia_total + self.output_inertia / self.gear.ratio ** 2
+
+    @property
     def drive_gain(self) -> float:
         """Rotor torque per unit of a torque/force input (1, or lead/(2 pi N) m/rad for N)."""
         if self.drive == "force":

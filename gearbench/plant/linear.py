@@ -253,8 +253,7 @@ def plant_info(plant: Plant) -> dict:
     osc = _oscillatory(plant)
     mesh = _mode_of(osc, "delta")
     shaft = _mode_of(osc, "phi") if plant.shaft is not None else None
-    j_total = (m.inertia + (plant.shaft.pinion_inertia if plant.shaft is not None else 0.0)
-               + plant.output_inertia / n ** 2)
+    j_total = plant.driven_inertia
     kt_ke = m.torque_constant * m.back_emf_constant
     b_total, t_drag = steady_drag(plant)
     w0 = steady_speed(plant)

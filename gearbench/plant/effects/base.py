@@ -240,8 +240,7 @@ def lumped_rotor(plant) -> str:
     "" when it can: with the rotor lumped into the load, the side of the clearance or the spring the
     drive acts on would carry next to no inertia, a split the file does not state (and the free
     rotor in a closed loop would chatter at the solver's smallest steps)."""
-    jm = plant.motor_inertia_total
-    total = jm + plant.output_inertia / plant.gear.ratio ** 2
+    jm, total = plant.motor_inertia_total, plant.driven_inertia
     if jm >= ROTOR_MIN_SHARE * total:
         return ""
     return (f"the rotor (motor.inertia {jm:.3g} kg m^2) is {jm / total:.2g} of the inertia it drives "

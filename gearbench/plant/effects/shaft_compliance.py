@@ -58,11 +58,12 @@ def _pinion_floor(plant, values):
     return ROTOR_MIN_SHARE * plant.motor_inertia_total
 
 
-def _coupling(plant, total: float, share: float, f_ar_hz: float) -> dict | None:
+def _coupling(total: float, load: float, share: float, f_ar_hz: float) -> dict | None:
     """The shaft that splits ``total`` (kg m^2, at the motor) into ``share`` on the rotor and the
-    rest beyond it, anti-resonant at ``f_ar_hz``; None when that leaves no pinion."""
+    rest beyond it, the reflected ``load`` (kg m^2) among it, anti-resonant at ``f_ar_hz``; None
+    when that leaves no pinion."""
     j_m, j_l = total * share, total * (1.0 - share)
-    pinion = j_l - plant.output_inertia / plant.gear.ratio ** 2
+    pinion = j_l - load
     if not 0.0 < pinion < j_m + pinion:
         return None
     k = j_l * (2 * math.pi * f_ar_hz) ** 2
@@ -112,19 +113,14 @@ class ShaftCompliance(Effect):
         if pair is None:
             return []
         share = (pair[0] / pair[1]) ** 2
-        totals = [plant.motor_inertia_total + plant.output_inertia / plant.gear.ratio ** 2]
-        if plant.drive != "voltage":
-            above = band & (f >= 2.0 * pair[1]) & (f <= 4.0 * pair[1])
-            if above.any():
-                j_m = plant.drive_gain / float(np.median(np.abs(h[above]) * (2 * math.pi * f[above]) ** 2))
-                totals.append(j_m / share)
-        out = []
-        for total in totals:
-            values = _coupling(plant, total, share, pair[0])
-            if values and total != totals[0]:
-                values["motor.inertia"] = total - plant.output_inertia / plant.gear.ratio ** 2
-            out += [values] if values else []
-        return out
+        load = plant.output_inertia / plant.gear.ratio ** 2
+        out = [_coupling(plant.driven_inertia, load, share, pair[0])]
+        above = band & (f >= 2.0 * pair[1]) & (f <= 4.0 * pair[1])
+        if plant.drive != "voltage" and above.any():
+            total = plant.drive_gain / float(np.median(np.abs(h[above]) * (2 * math.pi * f[above]) ** 2)) / share
+            own = _coupling(total, load, share, pair[0])
+            out.append(own and {**own, "motor.inertia": total - load})
+        return [values for values in out if values]
 
     def apply(self, values, plant):
         if plant.shaft is not None:
