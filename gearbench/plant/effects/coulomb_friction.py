@@ -16,7 +16,7 @@ import math
 import numba as nb
 
 from .base import Effect, Param, register
-from .location import LOCATIONS, at_shaft, key, torque_scale
+from .location import LOCATIONS, at_shaft, key, stick_slip_floor, torque_scale
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -47,10 +47,10 @@ class CoulombFriction(Effect):
     settings = {"model": ("stick_slip", "regularized")}
     params = (
         Param("torque", "N m (N at the carriage: force)", 0.0, 1e6, torque_scale,
-              "friction level (moving forward, or both ways)", carriage="force"),
+              "friction level (moving forward, or both ways)", carriage="force", fit_low=stick_slip_floor),
         Param("torque_negative", "N m (N at the carriage: force_negative)", 0.0, 1e6, torque_scale,
               "level moving backward when friction is asymmetric", optional=True,
-              carriage="force_negative"),
+              carriage="force_negative", fit_low=stick_slip_floor),
     )
     term = torque
     friction = stick_slip

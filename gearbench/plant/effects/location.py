@@ -47,6 +47,28 @@ def torque_scale(plant, values: dict) -> float:
     return 0.1 * t
 
 
+STICK_SLIP_FLOOR = 1e-3
+"""A fit's lowest stick-slip friction level, as a share of :func:`torque_scale` (1e-4 of the
+motor's stall torque): see :func:`stick_slip_floor`."""
+
+
+def stick_slip_floor(plant, values: dict) -> float:
+    """The lowest level (N m, N at the carriage) a fit gives a stick-slip friction
+    (``Param.fit_low``): :data:`STICK_SLIP_FLOOR` of :func:`torque_scale`.
+
+    Why: a fit of a friction the record does not hold walks its level towards 0, and on its way
+    passes the levels of the torques a body at rest still feels (the mesh's ringing, the
+    damping's), where it sticks and breaks away again at every turn of its speed.  On practice
+    record p03 (the nominal plant, 16 s at 1 kHz) a Coulomb friction at the load of 3e-5 to 3e-4
+    of this scale made 4,700-14,100 located events a replay (190 without it), at the motor
+    3,000-21,800, and replays up to 3.5x as long; at 1e-3 and above, 800-2,700.  The screen's fits
+    of the frictions that lose on p03 spent most of their replays there (``docs/speed.md``).  No
+    drive has so little friction against its stall torque (a small DC motor's no-load current is
+    some 2-10 % of its stall current), and the scan starts at 1e-2 of the scale
+    (``identify.search.SPAN``)."""
+    return STICK_SLIP_FLOOR * torque_scale(plant, values)
+
+
 def speed_scale(plant, values: dict) -> float:
     """Typical speed at the effect's location, rad/s (m/s at the carriage)."""
     loc = values.get("location", "load")

@@ -15,7 +15,7 @@ import math
 import numba as nb
 
 from .base import Effect, Param, register
-from .location import LOCATIONS, at_shaft, key, speed_scale, torque_scale
+from .location import LOCATIONS, at_shaft, key, speed_scale, stick_slip_floor, torque_scale
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -60,7 +60,7 @@ class StribeckFriction(Effect):
         Param("static_torque", "N m (N at the carriage: static_force)", 0.0, 1e6, _breakaway_scale,
               "breakaway level T_s", carriage="static_force"),
         Param("coulomb_torque", "N m (N at the carriage: coulomb_force)", 0.0, 1e6, torque_scale,
-              "sliding level T_c", carriage="coulomb_force"),
+              "sliding level T_c", carriage="coulomb_force", fit_low=stick_slip_floor),
         Param("stribeck_speed", "rad/s (m/s at the carriage: stribeck_speed_m_s)", 1e-9, 1e6,
               _stribeck_speed, "speed w_s over which T_s decays to T_c", carriage="stribeck_speed_m_s"),
     )
