@@ -87,7 +87,9 @@ CANDIDATES = ("viscous_friction", "coulomb_friction", "bias_torque", "load_sprin
 """What this bench can have among gearbench's effects: no gear (backlash), no voltage input
 (amplifier_deadzone), encoders of 2^20 counts (their quantisation is far below the errors)."""
 MAX_STEPS = 4
-TIME_LIMIT_S = 150.0
+"""The ladder's longest: what bounds the study's time.  No time limit: a limit of 150 s, where the
+ladder took 141 s, stopped it at 199 s, three rungs short, on a machine running 1.5-2x slower
+(2026-11-30, beside the test suite): the study's answer depended on the machine."""
 FREE_PLANT = ("motor.inertia",)
 
 
@@ -264,7 +266,7 @@ def diagnosis(fit_data: Measurement, workers: int | None = 1) -> dict:
     bare = bare_plant()
     t0 = time.perf_counter()
     d = diagnose(bare, replay_of(fit_data), free_plant=FREE_PLANT, workers=workers, max_steps=MAX_STEPS,
-                 only=CANDIDATES, time_limit_s=TIME_LIMIT_S)
+                 only=CANDIDATES)
     wall = time.perf_counter() - t0
     rungs = [{"effect": "bare (inertia fitted)", "action": "", "error_deg": float(d.baseline_error),
               "params": {k: float(v) for k, v in d.baseline.values.items()}, "plant": d.baseline.plant}]

@@ -71,13 +71,23 @@ def test_fit_coverage(rho):
     assert all(math.isfinite(v) for r in c["fits"] for v in r["stderr"].values())
 
 
+TUTORIAL_SEEDS = 60
+"""Twice the study's 30: over 30 seeds a coverage of 90 % is 27 of them, give or take 1.6 (its
+binomial standard error), and the rest angle's sat at 27 when this test was written.  A change
+that leaves every answer alone but a far bound of the friction's fit (its floor,
+``location.stick_slip_floor``) moved the fits' ends by up to 1.2 standard errors (they stop on a
+relative step of 1e-6, some 5 standard errors of the friction), and the rest angle's count to 26
+(2026-11-30).  Over 60 seeds: 93, 90 and 92 % before that change, 95, 90 and 93 % after."""
+
+
 def test_the_tutorials_fits_coverage():
     """``studies.coverage``'s second part: the tutorial's two fits (the spring alone, then the
-    friction with ``refit``) on 30 seeds of its 10 s record, rest angle at 0 deg: the truth within
-    +-2 reported standard errors in >= 90 % of fits for the stiffness, rest angle and friction
-    (100, 90 and 93 % when written; with the finite-difference step relative to the value, as
-    scipy's, the rest angle's was 10 %, RMS z 425).  About 40 s on two cores."""
-    t = C.tutorial_run(C.TUTORIAL_SEEDS, workers=2)
+    friction with ``refit``) on :data:`TUTORIAL_SEEDS` seeds of its 10 s record, rest angle at 0 deg:
+    the truth within +-2 reported standard errors in >= 90 % of fits for the stiffness, rest angle
+    and friction (over 30 seeds 100, 90 and 93 % when written; with the finite-difference step
+    relative to the value, as scipy's, the rest angle's was 10 %, RMS z 425).  About 80 s on two
+    cores."""
+    t = C.tutorial_run(TUTORIAL_SEEDS, workers=2)
     low = {n: v for n, v in t["coverage"].items() if v < 0.9}
     assert not low, f"coverage below 90 %: {low} (rms z {t['rms_z']})"
     assert all(math.isfinite(v) for r in t["fits"] for v in r["stderr"].values())
