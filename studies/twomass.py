@@ -229,7 +229,7 @@ def model_frf(plant: Plant, f_hz: np.ndarray) -> dict:
     bm, bl = _viscous(plant)
     kl = sum(float(e.values["stiffness"]) for e in plant.effects if e.name == "load_spring")
     if r.shaft is None:
-        j = r.motor.inertia + r.output_inertia / r.gear.ratio ** 2
+        j = r.driven_inertia
         h = 1.0 / (j * s ** 2 + (bm + bl) * s + kl)
         return {"motor": h, "load": h}
     t = two_mass(plant)

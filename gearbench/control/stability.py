@@ -284,7 +284,7 @@ def rigid_p_bound(plant: Plant) -> float | None:
     if plant.shaft is not None or plant.leadscrew is not None:
         return None
     m, n = plant.motor, plant.gear.ratio
-    j = m.inertia + plant.output_inertia / n ** 2
+    j = plant.driven_inertia
     b = m.damping + plant.output_damping / n ** 2
     el, r, kt, ke = m.inductance, m.resistance, m.torque_constant, m.back_emf_constant
     k_max = n * (el * b + r * j) * (r * b + kt * ke) / (el * j * kt)

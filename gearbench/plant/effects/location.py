@@ -62,11 +62,10 @@ def stick_slip_floor(plant, values: dict) -> float:
     record p03 (the nominal plant, 16 s at 1 kHz) a Coulomb friction at the load of 3e-5 to 3e-4
     of this scale made 4,700-14,100 located events a replay (190 without it), at the motor
     3,000-21,500; at 1e-3 to 1e-1, 800-3,100 (on p09, the same plant, such replays took up to
-    3.5x the bare plant's time).  The screen's fits
-    of the frictions that lose on p03 spent most of their replays there (``docs/speed.md``).  No
-    drive has so little friction against its stall torque (a small DC motor's no-load current is
-    some 2-10 % of its stall current), and the scan starts at 1e-2 of the scale
-    (``identify.search.SPAN``)."""
+    3.5x the bare plant's time).  The screen's fits of the frictions that lose on p03 spent most
+    of their replays there (``docs/speed.md``).  No drive has so little friction against its stall
+    torque (a small DC motor's no-load current is some 2-10 % of its stall current), and the scan
+    starts at 1e-2 of the scale (``identify.search.SPAN``)."""
     return STICK_SLIP_FLOOR * torque_scale(plant, values)
 
 
