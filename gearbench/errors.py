@@ -177,6 +177,11 @@ class SynthRunError(SynthError, SolverError):
     """The solver could not finish the synthesis run (the CLI exits 1, not 2)."""
 
 
+class FitSettled(GearbenchError):
+    """Not a failure: raised inside a least-squares fit in place of a replay that could not change
+    where it ends (``identify.fit.SecantJacobian.residual``) and caught there; it never leaves the fit."""
+
+
 # ------------------------------------------------------------------ Ctrl-C (KeyboardInterrupt)
 
 class GearbenchInterrupt(KeyboardInterrupt):

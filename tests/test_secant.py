@@ -4,11 +4,15 @@ for fewer residual evaluations; fresh where the update is not to be trusted; and
 size after updates goes on (``secant_least_squares``)."""
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
 from scipy.optimize._numdiff import approx_derivative
 
+from gearbench.errors import FitSettled
+from gearbench.identify import fit as fit_module
 from gearbench.identify.fit import FD_STEP, POOR_STEPS, SecantJacobian, fd_step, secant_least_squares
 
 T = np.linspace(0.0, 4.0, 200)
@@ -149,3 +153,74 @@ def test_a_stop_on_the_step_size_after_secant_updates_goes_on_to_the_optimum(fun
     res = secant_least_squares(fun, np.array(start), bounds, max_nfev=400)
     assert res.cost < 1e-12 and np.allclose(res.x, optimum, atol=1e-5), (res.cost, res.x)
     assert least_squares(fun, np.array(start), method="trf", ftol=1e-6, xtol=1e-6).cost < 1e-12
+
+
+
+def scattered(p):
+    """The model's residual with a replay's numerical scatter: at every new point a different 1e-5
+    (0.1 % of the noise), a function of the point alone, so the cost is not smooth below it."""
+    seed = int.from_bytes(hashlib.sha1(np.asarray(p, dtype=float).tobytes()).digest()[:4], "little")
+    return model(p) - DATA + 1e-5 * np.random.default_rng(seed).standard_normal(T.size)
+
+
+class ReplayingEveryTrial(SecantJacobian):
+    """The Jacobian as it was: every trial replayed (``ftol`` 0)."""
+
+    def __init__(self, fun, bounds, central, ftol=0.0):
+        super().__init__(fun, bounds, central, 0.0)
+
+
+def test_a_trial_foretold_to_gain_less_than_ftol_is_not_replayed(monkeypatch):
+    """Where the cost is scattered below the steps that matter, the trust region shrank, one rejected
+    replay after another, until the step size stopped the fit (xtol); after a rejection, a trial the
+    finite-difference Jacobian foretells to lower the RSS by less than FTOL of itself is not
+    replayed: the same end for fewer evaluations."""
+    settling = Counted()
+    after = secant_least_squares(lambda p: (settling(p), scattered(p))[1], START, BOUNDS)
+    monkeypatch.setattr(fit_module, "SecantJacobian", ReplayingEveryTrial)
+    every = Counted()
+    before = secant_least_squares(lambda p: (every(p), scattered(p))[1], START, BOUNDS)
+    assert before.status == 3 and after.status > 0, (before.status, after.status)
+    j = jacobian(after.x)
+    stderr = np.sqrt(np.diag(np.linalg.inv(j.T @ j)) * (after.fun @ after.fun) / (T.size - 4))
+    assert np.all(np.abs(after.x - before.x) < 0.01 * stderr), (after.x - before.x) / stderr
+    assert after.x == pytest.approx(TRUE, rel=0.02)
+    assert settling.calls < every.calls, (settling.calls, every.calls)
+
+
+def test_only_a_trial_foretold_to_gain_less_than_ftol_after_a_rejection_is_withheld():
+    fun = Counted()
+    secant = SecantJacobian(fun, BOUNDS, central=False, ftol=1e-6)
+    secant.residual(START)
+    secant(START)
+    rss = float(secant.r @ secant.r)
+    step = np.linalg.lstsq(secant.J, -secant.r, rcond=None)[0]   # the Gauss-Newton step
+
+    def foretold(t):
+        linear = secant.r + secant.J @ (t * step)
+        return rss - float(linear @ linear)
+    small = next(t for t in 0.5 ** np.arange(60) if foretold(t) < 1e-6 * rss)
+    n = fun.calls
+    secant.residual(START + small * step)                  # the first trial from a point: replayed
+    secant.residual(START + 1.5 * step)                    # a trial, as if the trust region rejected it
+    assert fun.calls == n + 2
+    with pytest.raises(FitSettled):
+        secant.residual(START + small * step)
+    assert fun.calls == n + 2                              # withheld: no evaluation
+    assert foretold(1.0) >= 1e-6 * rss
+    secant.residual(START + step)                          # foretold to gain more: replayed
+    assert fun.calls == n + 3
+    end = secant.settled()
+    assert end.status == 2 and np.array_equal(end.x, START) and end.cost == 0.5 * rss
+    # after a secant update the foresight is not trusted: every trial is replayed (FTOL says why)
+    secant = SecantJacobian(fun, BOUNDS, central=False, ftol=1e-6)
+    secant.residual(START)
+    secant(START)
+    z1 = START + 0.01 * step
+    secant.residual(z1)
+    secant(z1)
+    assert secant.updated
+    secant.residual(z1 + 1.5 * step)
+    n = fun.calls
+    secant.residual(z1 + 1e-12 * step)
+    assert fun.calls == n + 1

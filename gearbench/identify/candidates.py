@@ -20,7 +20,7 @@ from .executor import Executor
 from ..errors import FitError, NotConverged, ReplayError
 from .fit import Free, FitResult, evaluate, fit, get_value, set_values, sharpen
 from .scoring import Scorer, signal_evidence
-from .refit import best_fit, frees_of
+from .refit import best_of, frees_of
 from .replay import Replay
 from . import search
 from .timing import Cost, costed
@@ -227,8 +227,8 @@ def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
             points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
                                       [get_value(with_it, f) for f in frees],
                                       guesses=guess_points(replay, with_it, len(with_it.effects) - 1, frees))
-            res = sharpen(replay, scorer, best_fit([fit(replay, with_it, frees, scorer, start=list(x), sharp=False,
-                                                        **options) for x in points]))
+            res = sharpen(replay, scorer, best_of(points, lambda x: fit(replay, with_it, frees, scorer, start=list(x),
+                                                                        sharp=False, **options)))
             res = replace(res, k=res.k + len(est or {}))
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
@@ -336,8 +336,8 @@ def fit_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
         points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees],
                                   guesses=guess_points(replay, both, n, frees) + guess_points(replay, both, n + 1, frees))
         alone = min(t.result.rss for t in (first, second))
-        res = sharpen(replay, scorer, best_fit([fit(replay, both, frees, scorer, start=list(x), rounds_below=alone,
-                                                    sharp=False) for x in points]))
+        res = sharpen(replay, scorer, best_of(points, lambda x: fit(replay, both, frees, scorer, start=list(x),
+                                                                    rounds_below=alone, sharp=False)))
     except (ReplayError, ValueError) as exc:
         return Pair(first, second, None, f"could not be simulated: {exc}")
     return Pair(first, second, res, "" if res.converged else res.message)
