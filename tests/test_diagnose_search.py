@@ -379,7 +379,8 @@ def test_a_pair_that_gains_nothing_over_its_better_member_gets_no_second_round(m
 
     def fake_fit(replay, plant, frees, scorer, start=None, **kw):
         seen.append(kw.get("rounds_below"))
-        return SimpleNamespace(rss=1.0, converged=True, unsharp=None)  # a FitResult needing no sharpening
+        # a FitResult needing no sharpening, above the noise floors (so each start is fitted: refit.best_of)
+        return SimpleNamespace(rss=1.0, converged=True, unsharp=None, weighted_rms=2.0)
 
     monkeypatch.setattr(candidates_module, "fit", fake_fit)
     monkeypatch.setattr(candidates_module.search, "starts", lambda *a, **k: ([np.array(a[-1])] * 2, 1))

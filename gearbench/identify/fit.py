@@ -292,9 +292,10 @@ region shrank, one rejected replay after another, until ``xtol`` stopped it at a
 trial had not left: on practice case p01 a Stribeck friction at the motor foretold gains of 1e-2 to
 1e-3 of the noise's variance while every replay came out 0.6 worse, the replay's own numerical
 scatter.  Not trusted further: the first trial from a point is replayed whatever it foretells,
-and so is every trial foretold by a secant update; with either withheld too, the LuGre friction's
+and so is every trial foretold by a secant update.  With both withheld too, the LuGre friction's
 bristle stiffness fitted on coloured noise (``tests/test_effect_states.py``) stopped 4.8 standard
-errors short of the truth, or the fit at 3.5x the noise."""
+errors short of the truth; with the first trials withheld and the secant ones replayed, that fit
+ended at 3.5x the noise."""
 
 
 class SecantJacobian:
