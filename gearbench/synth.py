@@ -86,7 +86,7 @@ def input_scale(plant: Plant, hold_s: float = 0.5) -> float:
     n = p.gear.ratio
     theta = math.pi if p.leadscrew is None else 20e-3 / p.leadscrew.radius  # output rad
     j = p.driven_inertia
-    b = p.motor.damping + p.output_damping / n ** 2
+    b = p.driven_damping
     torque = j * 2.0 * theta * n / hold_s ** 2 + b * theta * n / hold_s
     return torque / p.drive_gain
 
@@ -286,7 +286,7 @@ def profile_controller(plant: Plant) -> Controller:
     p = plant.resolved()
     n = p.gear.ratio
     j = p.driven_inertia
-    b = p.motor.damping + p.output_damping / n ** 2
+    b = p.driven_damping
     zeta = 0.7
     if p.drive == "voltage":
         m = p.motor

@@ -393,8 +393,8 @@ def check_convergence(cfg, exp, rtols, rtols_low, results_dir, with_dopri=True):
 
 
 def check_motor(plant, volts=6.0):
-    m, n = plant.motor, plant.gear.ratio
-    b = m.damping + plant.output_damping / n ** 2
+    m = plant.motor
+    b = plant.driven_damping
     w = m.torque_constant * volts / (m.resistance * b + m.torque_constant * m.back_emf_constant)
     i = b * w / m.torque_constant
     run = simulate(plant, Controller("open"), Segments(np.array([0.0]), np.array([volts]), np.array([0.0])),

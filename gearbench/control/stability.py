@@ -285,7 +285,7 @@ def rigid_p_bound(plant: Plant) -> float | None:
         return None
     m, n = plant.motor, plant.gear.ratio
     j = plant.driven_inertia
-    b = m.damping + plant.output_damping / n ** 2
+    b = plant.driven_damping
     el, r, kt, ke = m.inductance, m.resistance, m.torque_constant, m.back_emf_constant
     k_max = n * (el * b + r * j) * (r * b + kt * ke) / (el * j * kt)
     return k_max / DEG_PER_RAD

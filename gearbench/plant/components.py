@@ -143,6 +143,12 @@ class Plant:
         return self.motor_inertia_total + self.output_inertia / self.gear.ratio ** 2
 
     @property
+    def driven_damping(self) -> float:
+        """The viscous damping the motor drives, at the motor: the rotor's and the output's
+        reflected (``b_m + b_out / N^2``), N m s/rad."""
+        return self.motor.damping + self.output_damping / self.gear.ratio ** 2
+
+    @property
     def drive_gain(self) -> float:
         """Rotor torque per unit of a torque/force input (1, or lead/(2 pi N) m/rad for N)."""
         if self.drive == "force":
@@ -164,7 +170,7 @@ class Plant:
         """A typical rotor speed, rad/s: the no-load speed, or drive limit / damping."""
         if self.drive == "voltage":
             return self.motor.no_load_speed
-        b = self.motor.damping + self.output_damping / self.gear.ratio ** 2
+        b = self.driven_damping
         if b > 0.0 and math.isfinite(self.motor.max_voltage):
             return self.typical_torque / b
         return self.gear.ratio  # 1 rad/s at the output
