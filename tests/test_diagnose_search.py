@@ -429,3 +429,51 @@ def test_unit_coordinates_invert_the_scan_and_near_starts_are_one():
     assert [list(p) for p in search.distinct([best, near], frees, 2)] == [list(best)]
     assert [list(p) for p in search.distinct([best, apart], frees, 2)] == [list(best), list(apart)]
     assert len(search.distinct([best, apart, near], frees, 2)) == 2   # only the best two are looked at
+
+
+def test_a_screen_fits_second_starts_only_for_the_candidates_its_first_starts_rank_best(monkeypatch):
+    """``ladder.screen``: each candidate is fitted from its scan's best start; only the
+    ``Policy.second_top`` best of those fits (and none at the noise floors) are fitted from their
+    second starts too, each keeping the better of its two fits, and the screen is ranked again.  A
+    candidate ranked below them keeps its first fit, however good its second start would be."""
+    from types import SimpleNamespace
+    from gearbench.identify.executor import Executor
+    rig = _rig()
+    replay = Replay(record(rig, [], duration=1.0))
+    n = 1000
+    # weighted RSS of each candidate's fit from its (first, second) start; the floors are an RSS of n
+    rss = {"coulomb_friction (load)": (0.9 * n, 0.1 * n), "coulomb_friction (motor)": (50 * n, 40 * n),
+           "viscous_friction (load)": (60 * n, 2 * n), "viscous_friction (motor)": (70 * n, 80 * n),
+           "bias_torque (load)": (90 * n, 0.5 * n), "load_spring": (95 * n, 0.2 * n)}
+    fitted = []
+
+    def fake_fit(replay, plant, frees, scorer, start=None, **kw):
+        label = Candidate(plant.effects[-1].name, {k: v for k, v in plant.effects[-1].values.items()
+                                                   if k in ("location", "signal")}).label()
+        which = int(start[0])
+        fitted.append((label, which))
+        replay.meter.fitted()  # as fit counts itself into the cost of the job it runs in
+        return FitResult(plant, {}, 1.0, rss[label][which], n, len(frees), True, "", 1)
+
+    monkeypatch.setattr(candidates_module, "fit", fake_fit)
+    monkeypatch.setattr(candidates_module.search, "starts",
+                        lambda replay, scorer, plant, frees, *a, **k: ([np.zeros(len(frees)), np.ones(len(frees))], 2))
+    tracker = Tracker(None)
+    with Executor(1) as workers:
+        ctx = SimpleNamespace(replay=replay, scorer=Scorer(replay), policy=Policy(second_top=3), workers=workers,
+                              tracker=tracker,
+                              only=("coulomb_friction", "viscous_friction", "bias_torque", "load_spring"), also=(),
+                              free_plant=(), added=lambda plant: ())
+        tried = ladder.screen(ctx, SimpleNamespace(plant=rig, rss=100.0 * n), (), 1)
+    firsts = {label for label, which in fitted if which == 0}
+    assert firsts == set(rss)
+    # ranked by their first starts: coulomb (load) at the floors, coulomb (motor), viscous (load), viscous (motor)
+    assert sorted(label for label, which in fitted if which == 1) == ["coulomb_friction (motor)",
+                                                                      "viscous_friction (load)"]
+    assert [t.label() for t in tried] == ["coulomb_friction (load)", "viscous_friction (load)",
+                                          "coulomb_friction (motor)", "viscous_friction (motor)",
+                                          "bias_torque (load)", "load_spring"]
+    assert [t.result.rss / n for t in tried] == [0.9, 2, 40, 70, 90, 95]
+    assert all(not t.later for t in tried[:3]) and all(len(t.later) == 1 for t in tried[3:])
+    costs = {s["stage"]: s["fits"] for s in tracker.timing.report()["stages"]}
+    assert costs == {"candidates": 6, "second starts": 2}, costs

@@ -5,6 +5,7 @@ size after updates goes on (``secant_least_squares``)."""
 from __future__ import annotations
 
 import hashlib
+from functools import partial
 
 import numpy as np
 import pytest
@@ -156,10 +157,12 @@ def test_a_stop_on_the_step_size_after_secant_updates_goes_on_to_the_optimum(fun
 
 
 
-def scattered(p):
+def scattered(p, salt: int = 0):
     """The model's residual with a replay's numerical scatter: at every new point a different 1e-5
-    (0.1 % of the noise), a function of the point alone, so the cost is not smooth below it."""
-    seed = int.from_bytes(hashlib.sha1(np.asarray(p, dtype=float).tobytes()).digest()[:4], "little")
+    (0.1 % of the noise), a function of the point (and ``salt``) alone, so the cost is not smooth
+    below it."""
+    key = np.asarray(p, dtype=float).tobytes() + bytes([salt])
+    seed = int.from_bytes(hashlib.sha1(key).digest()[:4], "little")
     return model(p) - DATA + 1e-5 * np.random.default_rng(seed).standard_normal(T.size)
 
 
@@ -174,18 +177,30 @@ def test_a_trial_foretold_to_gain_less_than_ftol_is_not_replayed(monkeypatch):
     """Where the cost is scattered below the steps that matter, the trust region shrank, one rejected
     replay after another, until the step size stopped the fit (xtol); after a rejection, a trial the
     finite-difference Jacobian foretells to lower the RSS by less than FTOL of itself is not
-    replayed: the same end for fewer evaluations."""
-    settling = Counted()
-    after = secant_least_squares(lambda p: (settling(p), scattered(p))[1], START, BOUNDS)
+    replayed: the same end for fewer evaluations.  Over 16 scatters, since which of them meets
+    such a cascade depends on the last bits of the trust region's steps: the one scatter this test
+    had met it with the packages of 2026-11-30 and not with numpy 2.4.6 and scipy 1.17.1, where 4
+    of the first 8 of these do."""
+    settling, every, ends = [], [], []
+    for salt in range(16):
+        fun = partial(scattered, salt=salt)
+        calls = Counted()
+        ends.append(secant_least_squares(lambda p: (calls(p), fun(p))[1], START, BOUNDS))
+        settling.append(calls.calls)
     monkeypatch.setattr(fit_module, "SecantJacobian", ReplayingEveryTrial)
-    every = Counted()
-    before = secant_least_squares(lambda p: (every(p), scattered(p))[1], START, BOUNDS)
-    assert before.status == 3 and after.status > 0, (before.status, after.status)
-    j = jacobian(after.x)
-    stderr = np.sqrt(np.diag(np.linalg.inv(j.T @ j)) * (after.fun @ after.fun) / (T.size - 4))
-    assert np.all(np.abs(after.x - before.x) < 0.01 * stderr), (after.x - before.x) / stderr
-    assert after.x == pytest.approx(TRUE, rel=0.02)
-    assert settling.calls < every.calls, (settling.calls, every.calls)
+    for salt, after in enumerate(ends):
+        fun = partial(scattered, salt=salt)
+        calls = Counted()
+        before = secant_least_squares(lambda p: (calls(p), fun(p))[1], START, BOUNDS)
+        every.append(calls.calls)
+        assert after.status > 0, (salt, after.status)
+        j = jacobian(after.x)
+        stderr = np.sqrt(np.diag(np.linalg.inv(j.T @ j)) * (after.fun @ after.fun) / (T.size - 4))
+        assert np.all(np.abs(after.x - before.x) < 0.01 * stderr), (salt, (after.x - before.x) / stderr)
+        assert after.x == pytest.approx(TRUE, rel=0.02)
+    # withheld trials end a fit on the path the fit replaying every trial takes: never more calls
+    assert all(a <= b for a, b in zip(settling, every)), (settling, every)
+    assert sum(settling) < sum(every), (settling, every)
 
 
 def test_only_a_trial_foretold_to_gain_less_than_ftol_after_a_rejection_is_withheld():

@@ -60,13 +60,15 @@ class Candidate:
 class Tried:
     """A candidate after fitting: ``params`` and ``stderr`` its own (file keys), ``note`` why it
     failed or what to know, ``cost`` what its fit cost wherever it ran (``timing.Cost``: wall time,
-    replays, solver steps, fits; None for a single made from a pair's fit)."""
+    replays, solver steps, fits; None for a single made from a pair's fit), ``later`` the starts of
+    its scan not yet fitted (fit coordinates of every free: ``Trial.starts``, :func:`fit_later`)."""
     candidate: Candidate
     result: FitResult | None
     params: dict = field(default_factory=dict)
     stderr: dict = field(default_factory=dict)
     note: str = ""
     cost: Cost | None = field(default=None, repr=False, compare=False)
+    later: tuple = field(default=(), repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
@@ -180,13 +182,18 @@ def start_values(plant: Plant, cand: Candidate) -> dict:
 class Trial:
     """How to fit one candidate (:func:`try_candidate`): the plant values ``free_plant`` and the
     effects numbered ``refit`` fitted with it; ``start`` its values to start from (no scan);
-    ``max_nfev``, ``restarts``, ``rounds_below``: as in :func:`gearbench.identify.fit.fit`."""
+    ``points`` the starts to fit from instead of a scan's (fit coordinates of every free); ``starts``
+    how many of them to fit now, the rest coming back on ``Tried.later`` once one has converged
+    (None: all); ``max_nfev``, ``restarts``, ``rounds_below``: as in
+    :func:`gearbench.identify.fit.fit`."""
     free_plant: tuple = ()
     refit: tuple[int, ...] = ()
     start: dict | None = None
     max_nfev: int | None = None
     restarts: int = 0
     rounds_below: float | None = None
+    points: tuple = ()
+    starts: int | None = None
 
 
 @single_threaded
@@ -205,12 +212,13 @@ def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     read, the rest fitted: a space-filling scan of the candidate's own
     parameters (``search``) picks the basin, bounded least squares does the
     rest; with ``how.start`` given (a user's values, or a previous fit's) the local
-    fit starts there without a scan.
+    fit starts there without a scan, with ``how.points`` from each of those.
     """
     eff = REGISTRY[cand.name]
     values = dict(how.start) if how.start is not None else start_values(plant, cand)
     dt = replay.data.sample_time_s
     options = dict(max_nfev=how.max_nfev, restarts=how.restarts, rounds_below=how.rounds_below)
+    later = []
     try:
         est = eff.estimate(values, replay.data.signals, plant)
         values.update(est or {})
@@ -224,17 +232,37 @@ def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
         elif how.start is not None:
             res = fit(replay, with_it, frees, scorer, **options)
         else:
-            points, _ = search.starts(replay, scorer, with_it, frees, len(mine),
-                                      [get_value(with_it, f) for f in frees],
-                                      guesses=guess_points(replay, with_it, len(with_it.effects) - 1, frees))
-            res = sharpen(replay, scorer, best_of(points, lambda x: fit(replay, with_it, frees, scorer, start=list(x),
-                                                                        sharp=False, **options)))
-            res = replace(res, k=res.k + len(est or {}))
+            points = list(how.points) or search.starts(
+                replay, scorer, with_it, frees, len(mine), [get_value(with_it, f) for f in frees],
+                guesses=guess_points(replay, with_it, len(with_it.effects) - 1, frees))[0]
+            res, later = best_of(points, lambda x: fit(replay, with_it, frees, scorer, start=list(x), sharp=False,
+                                                       **options), how.starts)
+            res = replace(sharpen(replay, scorer, res), k=res.k + len(est or {}))
     except (ReplayError, ValueError) as exc:
         return Tried(cand, None, note=f"could not be simulated: {exc}")
     if not res.converged:
         return Tried(cand, res, note=res.message)
-    return as_tried(cand, res)
+    return replace(as_tried(cand, res), later=tuple(later))
+
+
+def fit_later(replay: Replay, scorer: Scorer, plant: Plant, tried: Tried, how: Trial = Trial()) -> Tried:
+    """``tried`` fitted from the starts its screen left (``Tried.later``) too: the fit of lowest RSS
+    of them all, by ``how`` (as :func:`fit_candidate`'s), none left."""
+    again = fit_candidate(replay, scorer, plant, tried.candidate, replace(how, points=tried.later, starts=None))
+    return again if again.ok and again.result.rss < tried.result.rss else replace(tried, later=())
+
+
+@single_threaded
+def try_later(replay: Replay, scorer: Scorer, plant: Plant, tried: Tried, how: Trial = Trial()) -> Tried:
+    """:func:`fit_later`, its own cost measured where it runs and carried back (``Tried.cost``: this
+    work's alone, as :func:`try_candidate`'s)."""
+    out, spent = costed(fit_later, replay, scorer, plant, tried, how)
+    return replace(out, cost=spent)
+
+
+def run_later(args) -> Tried:
+    """:func:`try_later` of one job tuple (what an :class:`Executor` maps)."""
+    return try_later(*args)
 
 
 def guess_points(replay: Replay, plant: Plant, i: int, frees: list[Free]) -> list[list[float]]:
@@ -337,7 +365,7 @@ def fit_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
                                   guesses=guess_points(replay, both, n, frees) + guess_points(replay, both, n + 1, frees))
         alone = min(t.result.rss for t in (first, second))
         res = sharpen(replay, scorer, best_of(points, lambda x: fit(replay, both, frees, scorer, start=list(x),
-                                                                    rounds_below=alone, sharp=False)))
+                                                                    rounds_below=alone, sharp=False))[0])
     except (ReplayError, ValueError) as exc:
         return Pair(first, second, None, f"could not be simulated: {exc}")
     return Pair(first, second, res, "" if res.converged else res.message)
@@ -467,3 +495,9 @@ def fit_each(replay, scorer, plant, cands, workers: Executor, progress=None, how
     jobs = [(replay, scorer, plant, c[0], replace(how, start=c[1])) if isinstance(c, tuple)
             else (replay, scorer, plant, c, how) for c in cands]
     return run_jobs(run_candidate, jobs, workers, progress)
+
+
+def fit_each_later(replay, scorer, plant, tried: list[Tried], workers: Executor, progress=None,
+                   how: Trial = Trial()) -> list[Tried]:
+    """:func:`fit_later` of each of ``tried`` where ``workers`` runs them, in their order."""
+    return run_jobs(run_later, [(replay, scorer, plant, t, how) for t in tried], workers, progress)

@@ -24,7 +24,8 @@ import numpy as np
 from ..plant.components import Plant
 from ..plant.effects import AddedEffect
 from . import calibration, search
-from .candidates import Pair, Trial, Tried, candidates, fit_each, pair_jobs, rank, run_jobs, run_pair
+from .candidates import (Pair, Trial, Tried, candidates, fit_each, fit_each_later, pair_jobs, rank, run_jobs,
+                         run_pair)
 from .executor import Executor
 from .fit import FitResult, Free, get_value, plant_frees, sharpen
 from .scoring import Scorer, bic_drop
@@ -216,13 +217,20 @@ def _rung(ctx: Context, state: State) -> Iterator[State]:
 
 def screen(ctx: Context, res: FitResult, refitted: tuple, number: int) -> list[Tried]:
     """A rung's candidates ranked: each fitted with the model's effects and calibrated values held
-    (cheap), then the best ``joint_top`` refitted with them."""
+    (cheap) from the best start of its scan, the best ``second_top`` from their second starts too
+    (:class:`~gearbench.identify.policy.Policy`), then the best ``joint_top`` refitted with the
+    model's effects."""
     model = res.plant
     added = ctx.added(model)
     cands = candidates(model, ctx.replay, ctx.only, ctx.also)
+    how = Trial(free_plant=ctx.free_plant, rounds_below=res.rss, starts=1)
     tried = rank(fit_each(ctx.replay, ctx.scorer, model, cands, ctx.workers,
-                          ctx.tracker.stage("candidates", number, len(cands)),
-                          Trial(free_plant=ctx.free_plant, rounds_below=res.rss)))
+                          ctx.tracker.stage("candidates", number, len(cands)), how))
+    top = [t for t in tried[:ctx.policy.second_top] if t.later]
+    if top:
+        again = fit_each_later(ctx.replay, ctx.scorer, model, top, ctx.workers,
+                               ctx.tracker.stage("second starts", number, len(top)), how)
+        tried = rank(again + [t for t in tried if all(t is not u for u in top)])
     if added:
         top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:ctx.policy.joint_top] if t.ok]
         joint = fit_each(ctx.replay, ctx.scorer, model, top, ctx.workers,

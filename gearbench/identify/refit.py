@@ -40,15 +40,19 @@ residuals, and more replays for their finite differences, to end 0.003 lower in 
 (measured on the code before this rule, 2026-11-30)."""
 
 
-def best_of(starts, fit_from) -> FitResult:
-    """:func:`best_fit` of ``fit_from(x)`` for each of ``starts`` in order, the last one tried the
-    first whose fit reaches the noise floors (:data:`AT_FLOORS`)."""
+def best_of(starts, fit_from, enough: int | None = None) -> tuple[FitResult, list]:
+    """:func:`best_fit` of ``fit_from(x)`` for each of ``starts`` in order, and the starts left
+    unfitted: none after the first fit that reaches the noise floors (:data:`AT_FLOORS`); with
+    ``enough``, the rest once that many are fitted and one of them converged (the ladder's screen
+    fits the others' later, where the candidate ranks high enough: ``ladder.screen``)."""
     results = []
-    for x in starts:
+    for i, x in enumerate(starts):
         results.append(fit_from(x))
         if results[-1].converged and results[-1].weighted_rms <= AT_FLOORS:
-            break
-    return best_fit(results)
+            return best_fit(results), []
+        if enough is not None and i + 1 >= enough and any(r.converged for r in results):
+            return best_fit(results), list(starts[i + 1:])
+    return best_fit(results), []
 
 
 def best_fit(results: list[FitResult]) -> FitResult:
