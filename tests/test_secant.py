@@ -156,7 +156,6 @@ def test_a_stop_on_the_step_size_after_secant_updates_goes_on_to_the_optimum(fun
     assert least_squares(fun, np.array(start), method="trf", ftol=1e-6, xtol=1e-6).cost < 1e-12
 
 
-
 def scattered(p, salt: int = 0):
     """The model's residual with a replay's numerical scatter: at every new point a different 1e-5
     (0.1 % of the noise), a function of the point (and ``salt``) alone, so the cost is not smooth

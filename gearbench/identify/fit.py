@@ -39,7 +39,6 @@ from .scoring import Scorer, criterion, objective_signals
 from . import uncertainty as U
 
 
-
 EXCESS = {("stribeck_friction", "static_torque"): "coulomb_torque"}
 """(effect, parameter) -> the parameter of the same effect it must not fall below: the fit moves
 the excess (file keys: ``static_force`` over ``coulomb_force`` at the carriage)."""
@@ -442,7 +441,7 @@ class _Trials:
     scales: np.ndarray
     failures: list = field(default_factory=list)
     size: int | None = None  # the residual's length, once a replay has run
-    settled: tuple | None = None  # (z, run) of the last :meth:`settle`, which ends a fit where it is
+    last_settle: tuple | None = None  # (z, run) of the last :meth:`settle`, which ends a fit where it is
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -475,14 +474,14 @@ class _Trials:
         except (ReplayError, ValueError) as exc:
             self.failures.append(str(exc))
             return (), math.inf
-        self.settled = (np.array(z, dtype=float), run)
+        self.last_settle = (np.array(z, dtype=float), run)
         return run.seams, float(w @ w)
 
     def own_run(self, z):
         """The replay at ``z`` by its own resets: the last :meth:`settle`'s where that was at ``z``
         (a fit's last round ends where it settled), else a new one."""
-        if self.settled is not None and np.array_equal(self.settled[0], z):
-            return self.settled[1]
+        if self.last_settle is not None and np.array_equal(self.last_settle[0], z):
+            return self.last_settle[1]
         return self.replay.run(set_values(self.plant, self.frees, z * self.scales))
 
 
