@@ -61,7 +61,7 @@ class Tried:
     """A candidate after fitting: ``params`` and ``stderr`` its own (file keys), ``note`` why it
     failed or what to know, ``cost`` what its fit cost wherever it ran (``timing.Cost``: wall time,
     replays, solver steps, fits; None for a single made from a pair's fit), ``later`` the starts of
-    its scan not yet fitted (fit coordinates of every free: ``Trial.starts``, :func:`fit_later`)."""
+    its scan not yet fitted (fit coordinates of every free: ``Trial.starts``, :func:`fit_each_later`)."""
     candidate: Candidate
     result: FitResult | None
     params: dict = field(default_factory=dict)
@@ -243,26 +243,6 @@ def fit_candidate(replay: Replay, scorer: Scorer, plant: Plant, cand: Candidate,
     if not res.converged:
         return Tried(cand, res, note=res.message)
     return replace(as_tried(cand, res), later=tuple(later))
-
-
-def fit_later(replay: Replay, scorer: Scorer, plant: Plant, tried: Tried, how: Trial = Trial()) -> Tried:
-    """``tried`` fitted from the starts its screen left (``Tried.later``) too: the fit of lowest RSS
-    of them all, by ``how`` (as :func:`fit_candidate`'s), none left."""
-    again = fit_candidate(replay, scorer, plant, tried.candidate, replace(how, points=tried.later, starts=None))
-    return again if again.ok and again.result.rss < tried.result.rss else replace(tried, later=())
-
-
-@single_threaded
-def try_later(replay: Replay, scorer: Scorer, plant: Plant, tried: Tried, how: Trial = Trial()) -> Tried:
-    """:func:`fit_later`, its own cost measured where it runs and carried back (``Tried.cost``: this
-    work's alone, as :func:`try_candidate`'s)."""
-    out, spent = costed(fit_later, replay, scorer, plant, tried, how)
-    return replace(out, cost=spent)
-
-
-def run_later(args) -> Tried:
-    """:func:`try_later` of one job tuple (what an :class:`Executor` maps)."""
-    return try_later(*args)
 
 
 def guess_points(replay: Replay, plant: Plant, i: int, frees: list[Free]) -> list[list[float]]:
@@ -499,5 +479,9 @@ def fit_each(replay, scorer, plant, cands, workers: Executor, progress=None, how
 
 def fit_each_later(replay, scorer, plant, tried: list[Tried], workers: Executor, progress=None,
                    how: Trial = Trial()) -> list[Tried]:
-    """:func:`fit_later` of each of ``tried`` where ``workers`` runs them, in their order."""
-    return run_jobs(run_later, [(replay, scorer, plant, t, how) for t in tried], workers, progress)
+    """Each of ``tried`` fitted by ``how`` from the starts its screen left (``Tried.later``) too, where
+    ``workers`` runs them: the fit of lowest RSS of them all, none left, in their order (``progress``
+    is given the new fits, with what they cost)."""
+    again = run_jobs(run_candidate, [(replay, scorer, plant, t.candidate, replace(how, points=t.later, starts=None))
+                                     for t in tried], workers, progress)
+    return [a if a.ok and a.result.rss < t.result.rss else replace(t, later=()) for t, a in zip(tried, again)]
