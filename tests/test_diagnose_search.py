@@ -199,7 +199,7 @@ def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(mo
         def fake_run_jobs(fn, batch, workers, progress):
             batches.append(len(batch))
             return [Pair(j[3], j[4], SimpleNamespace(
-                converged=True, error=1.0, weighted_rms=1.0 if jobs.index(j) == at_noise else 5.0)) for j in batch]
+                converged=True, error=1.0, weighted_rms=1.0 if jobs.index(j[:7]) == at_noise else 5.0)) for j in batch]
 
         def ahead(batch):
             looked.append(len(batch))
@@ -477,3 +477,52 @@ def test_a_screen_fits_second_starts_only_for_the_candidates_its_first_starts_ra
     assert all(not t.later for t in tried[:3]) and all(len(t.later) == 1 for t in tried[3:])
     costs = {s["stage"]: s["fits"] for s in tracker.timing.report()["stages"]}
     assert costs == {"candidates": 6, "second starts": 2}, costs
+
+
+def test_the_pairs_fit_second_starts_only_for_the_best_fitted_so_far(monkeypatch):
+    """``ladder.fit_pairs``: each pair is fitted from its scan's best start; after each batch the
+    ``Policy.second_top`` best of the pairs fitted so far (by BIC) are fitted from their second
+    starts too, each keeping the better of its two fits.  A pair ranked below them keeps its first
+    fit however good its second start would be, and one of a later batch that ranks among the best
+    gets its second start in its own batch."""
+    from contextlib import contextmanager
+    from gearbench.identify.executor import Executor
+    rig = _rig()
+    replay = Replay(record(rig, [], duration=1.0))
+    scorer = Scorer(replay)
+    n = 1000
+    policy = Policy(second_top=3)
+    jobs = pair_jobs(replay, scorer, rig, _six_ranked(rig), (), (), policy.pair_top)
+    names = [frozenset((j[3].candidate.name, j[4].candidate.name)) for j in jobs]
+    assert len(jobs) > 2 * policy.pair_batch
+    # weighted RSS (in n) of each pair's fit from its (first, second) start; above the floors (1.44)
+    rss = {name: (60.0 + i, 2.0) for i, name in enumerate(names)}
+    rss[names[0]], rss[names[1]], rss[names[2]], rss[names[3]] = (10.0, 9.0), (20.0, 25.0), (30.0, 5.0), (40.0, 3.0)
+    late = policy.pair_batch + 1  # of the second batch: it ranks best after its first start
+    rss[names[late]] = (4.0, 3.5)
+    fitted = []
+
+    def fake_fit(replay, plant, frees, scorer, start=None, **kw):
+        pair = frozenset(e.name for e in plant.effects[-2:])
+        which = int(start[0])
+        fitted.append((names.index(pair), which))
+        return FitResult(plant, {}, 1.0, rss[pair][which] * n, n, len(frees), True, "", 1)
+
+    monkeypatch.setattr(candidates_module, "fit", fake_fit)
+    monkeypatch.setattr(candidates_module.search, "starts",
+                        lambda replay, scorer, plant, frees, *a, **k: ([np.zeros(len(frees)), np.ones(len(frees))], 2))
+    asked = []
+
+    @contextmanager
+    def again(count):
+        asked.append(count)
+        yield None
+    with Executor(1) as workers:
+        pairs, ahead = ladder.fit_pairs(jobs, policy, workers, None, lambda batch: None, again)
+    assert sorted(i for i, which in fitted if which == 0) == list(range(len(jobs)))
+    # batch 1: the three best first fits (0, 1, 2); batch 2: the new best (late) alone; none after
+    assert sorted(i for i, which in fitted if which == 1) == [0, 1, 2, late]
+    assert asked == [3, 1]
+    assert [p.result.rss / n for p in pairs[:4]] == [9.0, 20.0, 5.0, 40.0]
+    assert pairs[late].result.rss / n == 3.5
+    assert not any(p.later for p in pairs[:3]) and pairs[3].later and pairs[late + 1].later

@@ -277,6 +277,7 @@ class Pair:
     result: FitResult | None
     note: str = ""
     cost: Cost | None = field(default=None, repr=False, compare=False)  # as Tried.cost
+    later: tuple = field(default=(), repr=False, compare=False)  # as Tried.later
 
     @property
     def ok(self) -> bool:
@@ -318,22 +319,25 @@ def pairable(a: Tried, b: Tried) -> bool:
 
 @single_threaded
 def try_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second: Tried,
-             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
+             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = (), points: tuple = (),
+             starts: int | None = None) -> Pair:
     """:func:`fit_pair`, its cost measured where it runs and carried back (``Pair.cost``), as
     :func:`try_candidate`'s."""
-    pair, spent = costed(fit_pair, replay, scorer, plant, first, second, free_plant, refit)
+    pair, spent = costed(fit_pair, replay, scorer, plant, first, second, free_plant, refit, points, starts)
     return replace(pair, cost=spent)
 
 
 def fit_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second: Tried,
-             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = ()) -> Pair:
+             free_plant: tuple[str, ...] = (), refit: tuple[int, ...] = (), points: tuple = (),
+             starts: int | None = None) -> Pair:
     """Fit two candidates jointly (with the free plant parameters and the effects numbered in
     ``refit``); ``k`` counts both.  The local fit starts from the best of their single fits and
     a space-filling scan of both effects' parameters (``search``): a single fit of one member
     of a confounded pair is far from its value in the pair (Coulomb friction fitted alone on a
     record with a spring: 3.5 N m for 0.6).  A fit that gained nothing in its first round over
     the better of the two alone gets no second (``fit(rounds_below=)``: a pair that does not
-    beat it does not pay)."""
+    beat it does not pay).  ``points`` and ``starts`` as :class:`Trial`'s: the starts to fit from
+    instead of the scan's, and how many of them now (the rest on ``Pair.later``)."""
     n = len(plant.effects)
     both = plant.with_effects(*(AddedEffect(t.candidate.name, {**t.candidate.options, **t.params})
                                 for t in (first, second)))
@@ -341,19 +345,29 @@ def fit_pair(replay: Replay, scorer: Scorer, plant: Plant, first: Tried, second:
     mine = Free.effect(both, n, dt) + Free.effect(both, n + 1, dt)
     frees = mine + frees_of(replay, both, free_plant, refit)
     try:
-        points, _ = search.starts(replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees],
-                                  guesses=guess_points(replay, both, n, frees) + guess_points(replay, both, n + 1, frees))
+        points = list(points) or search.starts(
+            replay, scorer, both, frees, len(mine), [get_value(both, f) for f in frees],
+            guesses=guess_points(replay, both, n, frees) + guess_points(replay, both, n + 1, frees))[0]
         alone = min(t.result.rss for t in (first, second))
-        res = sharpen(replay, scorer, best_of(points, lambda x: fit(replay, both, frees, scorer, start=list(x),
-                                                                    rounds_below=alone, sharp=False))[0])
+        res, later = best_of(points, lambda x: fit(replay, both, frees, scorer, start=list(x), rounds_below=alone,
+                                                   sharp=False), starts)
+        res = sharpen(replay, scorer, res)
     except (ReplayError, ValueError) as exc:
         return Pair(first, second, None, f"could not be simulated: {exc}")
-    return Pair(first, second, res, "" if res.converged else res.message)
+    return Pair(first, second, res, "" if res.converged else res.message, later=tuple(later))
 
 
 def run_pair(args) -> Pair:
     """:func:`try_pair` of one job tuple (what an :class:`Executor` maps)."""
     return try_pair(*args)
+
+
+def fit_pairs_later(jobs, pairs: list[Pair], workers: Executor, progress=None) -> list[Pair]:
+    """Each of ``pairs`` (made by the :func:`pair_jobs` job beside it in ``jobs``) fitted from the
+    starts its first fit left (``Pair.later``) too, where ``workers`` runs them: the fit of lower RSS
+    of each, none left (as :func:`fit_each_later`'s)."""
+    again = run_jobs(run_pair, [job[:7] + (p.later, None) for job, p in zip(jobs, pairs)], workers, progress)
+    return [a if a.ok and a.result.rss < p.result.rss else replace(p, later=()) for p, a in zip(pairs, again)]
 
 
 def pair_jobs(replay, scorer, plant, tried, free_plant, refit, top: int) -> list[tuple]:

@@ -32,7 +32,8 @@ class Policy:
     evidence, Kass & Raftery 1995); min_error_drop: and the weighted RMS by more than this
     fraction (0.03: 3 %); at_noise: a weighted RMS within this many times the noise floors is
     explained (1.2); second_top: the candidates of a rung's screen, ranked by the fits from their
-    best starts, that are fitted from their second starts too (3); joint_top: the candidates
+    best starts, that are fitted from their second starts too, and so the best pairs fitted so far
+    after each batch of pairs (3); joint_top: the candidates
     refitted jointly with the effects already added (3); calibration_restarts: the calibration fit
     restarts on a stall (3, :func:`gearbench.identify.fit.fit`); pair_top: the effects whose best
     places are refitted jointly in pairs (6: 15 pairs at most); pair_batch: pairs fitted at a time,

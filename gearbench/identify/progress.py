@@ -8,7 +8,7 @@ from typing import Callable
 from .timing import Timing
 
 STAGES = ("baseline", "calibration plan", "candidates", "second starts", "joint refit", "calibration", "pairs",
-          "simplify", "prune")
+          "pair second starts", "simplify", "prune")
 """The stages of one rung, in order (``ProgressEvent.stage``); the first two come once, before the first."""
 
 

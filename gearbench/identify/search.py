@@ -19,8 +19,8 @@ rounded up to a power of two (Sobol's balance property), plus the given start
 The local fit then starts from the ``LOCAL_STARTS`` best points, less those within :data:`NEAR` of
 a better one in every scanned coordinate of the unit cube: two starts that close end in one basin;
 a start is not fitted when a better one's fit already reached the noise floors (``refit.best_of``),
-and in diagnose's screen the second start only for the candidates whose first fits rank best
-(``Policy.second_top``, ``ladder.screen``).
+and in diagnose's screen and pairs the second start only for the candidates (pairs) whose first
+fits rank best (``Policy.second_top``, ``ladder.screen``, ``ladder.fit_pairs``).
 """
 from __future__ import annotations
 
