@@ -199,7 +199,8 @@ def test_the_pairs_stop_after_the_batch_in_which_one_reaches_the_noise_floors(mo
         def fake_run_jobs(fn, batch, workers, progress):
             batches.append(len(batch))
             return [Pair(j[3], j[4], SimpleNamespace(
-                converged=True, error=1.0, weighted_rms=1.0 if jobs.index(j[:7]) == at_noise else 5.0)) for j in batch]
+                converged=True, error=1.0, bic=0.0, weighted_rms=1.0 if jobs.index(j[:7]) == at_noise else 5.0))
+                    for j in batch]
 
         def ahead(batch):
             looked.append(len(batch))

@@ -366,8 +366,8 @@ def fit_pairs_later(jobs, pairs: list[Pair], workers: Executor, progress=None) -
     """Each of ``pairs`` (made by the :func:`pair_jobs` job beside it in ``jobs``) fitted from the
     starts its first fit left (``Pair.later``) too, where ``workers`` runs them: the fit of lower RSS
     of each, none left (as :func:`fit_each_later`'s)."""
-    again = run_jobs(run_pair, [job[:7] + (p.later, None) for job, p in zip(jobs, pairs)], workers, progress)
-    return [a if a.ok and a.result.rss < p.result.rss else replace(p, later=()) for p, a in zip(pairs, again)]
+    again = run_jobs(run_pair, [job + (p.later, None) for job, p in zip(jobs, pairs)], workers, progress)
+    return [better(p, a) for p, a in zip(pairs, again)]
 
 
 def pair_jobs(replay, scorer, plant, tried, free_plant, refit, top: int) -> list[tuple]:
@@ -498,4 +498,10 @@ def fit_each_later(replay, scorer, plant, tried: list[Tried], workers: Executor,
     is given the new fits, with what they cost)."""
     again = run_jobs(run_candidate, [(replay, scorer, plant, t.candidate, replace(how, points=t.later, starts=None))
                                      for t in tried], workers, progress)
-    return [a if a.ok and a.result.rss < t.result.rss else replace(t, later=()) for t, a in zip(tried, again)]
+    return [better(t, a) for t, a in zip(tried, again)]
+
+
+def better(first, again):
+    """Of a :class:`Tried` (or :class:`Pair`) ``first`` and ``again``, its fit from the starts it
+    left, the one of lower RSS, with no starts left."""
+    return again if again.ok and again.result.rss < first.result.rss else replace(first, later=())

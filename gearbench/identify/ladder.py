@@ -360,8 +360,6 @@ def _second_starts(jobs: list, pairs: list[Pair], policy: Policy, workers: Execu
     second (75,284); the others stayed losers or won anyway.  A pair ranked below the best few
     keeps its first fit, as the screen's candidates do (:func:`screen`).  A pair's rank among
     those fitted so far only falls as later batches come, so its batch decides for good."""
-    if not any(p.later for p in pairs):
-        return pairs
     best = sorted((p for p in pairs if p.ok), key=lambda p: p.result.bic)[:policy.second_top]
     top = [i for i, p in enumerate(pairs) if p.later and any(p is b for b in best)]
     if not top:

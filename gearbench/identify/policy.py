@@ -33,11 +33,11 @@ class Policy:
     fraction (0.03: 3 %); at_noise: a weighted RMS within this many times the noise floors is
     explained (1.2); second_top: the candidates of a rung's screen, ranked by the fits from their
     best starts, that are fitted from their second starts too, and so the best pairs fitted so far
-    after each batch of pairs (3); joint_top: the candidates
-    refitted jointly with the effects already added (3); calibration_restarts: the calibration fit
-    restarts on a stall (3, :func:`gearbench.identify.fit.fit`); pair_top: the effects whose best
-    places are refitted jointly in pairs (6: 15 pairs at most); pair_batch: pairs fitted at a time,
-    until one reaches the noise floors (4)."""
+    after each batch of pairs (3); joint_top: the candidates refitted jointly with the effects
+    already added (3); calibration_restarts: the calibration fit restarts on a stall (3,
+    :func:`gearbench.identify.fit.fit`); pair_top: the effects whose best places are refitted
+    jointly in pairs (6: 15 pairs at most); pair_batch: pairs fitted at a time, until one reaches
+    the noise floors (4)."""
     min_bic_drop: float = 10.0
     min_error_drop: float = 0.03
     at_noise: float = 1.2

@@ -44,7 +44,8 @@ def best_of(starts, fit_from, enough: int | None = None) -> tuple[FitResult, lis
     """:func:`best_fit` of ``fit_from(x)`` for each of ``starts`` in order, and the starts left
     unfitted: none after the first fit that reaches the noise floors (:data:`AT_FLOORS`); with
     ``enough``, the rest once that many are fitted and one of them converged (the ladder's screen
-    fits the others' later, where the candidate ranks high enough: ``ladder.screen``)."""
+    and pairs fit the others' later, where the candidate or pair ranks high enough:
+    ``ladder.screen``, ``ladder.fit_pairs``)."""
     results = []
     for i, x in enumerate(starts):
         results.append(fit_from(x))
