@@ -112,7 +112,7 @@ def _init_worker(parent_pid: int, watch: str) -> None:
         _watch_parent(parent_pid)
 
 
-def _kill_workers(pool: ProcessPoolExecutor) -> None:
+def kill_workers(pool: ProcessPoolExecutor) -> None:
     """SIGKILL the pool's live workers (their running tasks are abandoned) and shut it down."""
     # ``_processes`` (pid -> Process) is the executor's own table; there is no public one
     for proc in list((getattr(pool, "_processes", None) or {}).values()):
@@ -158,7 +158,7 @@ def process_pool(workers: int, *, watch: str = "auto") -> Iterator[ProcessPoolEx
     try:
         yield pool
     except BaseException:
-        _kill_workers(pool)
+        kill_workers(pool)
         raise
     pool.shutdown(wait=True)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gearbench.experiment.files import ConfigError, load_plant, parse_yaml, plant_from_dict
@@ -249,9 +250,12 @@ def test_a_fit_holds_the_replays_resets_while_it_moves():
 
 def test_a_calibration_starts_again_from_the_best_points_of_its_tolerance_box():
     """``calibration.starts``: the best ``search.LOCAL_STARTS`` of a Sobol scan inside the box,
-    best first, the same on every call; values past ``calibrated`` stay where the plant has them.
-    From p04's datasheet errors the best point is nearer the truth than the file's values."""
+    best first, the same on every call and with its scan on two worker processes (none when told to
+    stop waiting for it); values past
+    ``calibrated`` stay where the plant has them.  From p04's datasheet errors the best point is
+    nearer the truth than the file's values."""
     from gearbench.identify import search
+    from gearbench.identify.executor import Executor
     from gearbench.identify.fit import get_value, set_values
     truth = load_plant(RIG)
     file = _p04_values(truth)
@@ -266,7 +270,10 @@ def test_a_calibration_starts_again_from_the_best_points_of_its_tolerance_box():
     rss = [float(w @ w) for w in (scorer.weighted(replay.run(set_values(file, frees, x))) for x in got)]
     at_file = scorer.weighted(replay.run(file))
     assert rss[0] <= rss[1] and rss[0] < float(at_file @ at_file)
-    assert all((a == b).all() for a, b in zip(got, calibration.starts(replay, scorer, file, frees, len(frees) - 1)))
+    with Executor(workers=2).pool() as pool:
+        again = calibration.starts(replay, scorer, file, frees, len(frees) - 1, pool=pool)
+        assert calibration.starts(replay, scorer, file, frees, len(frees) - 1, pool=pool, until=lambda: True) is None
+    assert len(again) == len(got) and all((a == b).all() for a, b in zip(got, again))
 
 
 def test_the_valley_of_one_reflected_inertia_keeps_the_sum_within_the_bounds():
@@ -327,3 +334,81 @@ def test_along_the_valley_the_calibration_of_practice_record_p08_reaches_the_tru
     for key in ("motor.inertia", "load.inertia"):
         section, name = key.split(".")
         assert found.values[key] == pytest.approx(truth[section][name], rel=0.005), (key, found.values[key])
+
+
+_FAKE = {"folder": None, "rss": {}, "slow": (), "model_s": 0.0}
+"""What :func:`_fake_fit_from` returns and where it notes that it ran (set by the test before the
+pool forks, so the workers see it)."""
+
+
+def _fake_fit_from(job):
+    """``calibration.fit_from``'s stand-in: the fit from the model's values (``start`` None) or from
+    scan point ``start[0]``, at the weighted RSS per sample ``_FAKE["rss"]`` gives it; the ones in
+    ``_FAKE["slow"]`` take ten minutes (a test that waits for one fails on its clock), the one
+    from the model's values ``_FAKE["model_s"]`` seconds."""
+    import time
+    from gearbench.identify.fit import FitResult
+    from gearbench.identify.timing import Cost
+    _, _, plant, frees, start, _ = job
+    which = "model" if start is None else f"point {int(start[0])}"
+    with open(_FAKE["folder"] / "ran", "a") as log:
+        log.write(which + "\n")
+    time.sleep(600 if which in _FAKE["slow"] else _FAKE["model_s"] if which == "model" else 0)
+    n = 1000
+    return FitResult(plant, {}, 1.0, _FAKE["rss"][which] * n, n, len(frees), True, "", 1), Cost(replays=1)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+@pytest.mark.parametrize("refit", ["explains", "pays", "does not pay"])
+def test_a_calibration_fits_its_scan_points_only_when_the_fit_from_the_models_values_leaves_work(
+        monkeypatch, tmp_path, workers, refit):
+    """``ladder.calibrate``: the fit from the model's values, and the fits from the scan's two best
+    points only where that one pays but stops above the noise floors (``Policy.at_noise``), the
+    best of them kept.  With one worker a point's fit runs only then; with two they start beside
+    it (the worse point's first) and, where it settles the calibration alone, are dropped: the call
+    returns without waiting for them and leaves no worker process behind."""
+    import multiprocessing
+    import time
+    from types import SimpleNamespace
+    from gearbench.identify import ladder
+    from gearbench.identify.executor import Executor
+    from gearbench.identify.fit import Free, FitResult
+    from gearbench.identify.timing import Timing
+    plant = load_plant(RIG)
+    frees = [Free.plant(plant, "motor.resistance"), Free.plant(plant, "load.inertia")]
+    rss = {"explains": 1.1, "pays": 50.0, "does not pay": 150.0}[refit]
+    monkeypatch.setitem(_FAKE, "folder", tmp_path)
+    monkeypatch.setitem(_FAKE, "rss", {"model": rss, "point 1": 40.0, "point 2": 20.0})
+    monkeypatch.setitem(_FAKE, "slow", () if refit == "pays" else ("point 1", "point 2"))
+    monkeypatch.setitem(_FAKE, "model_s", 2.0 * (workers - 1))  # still running when the points' fits start
+    monkeypatch.setattr(calibration, "fit_from", _fake_fit_from)
+    scanned = []
+
+    def starts(replay, scorer, model, fs, calibrated, pool=None, spent=None, until=None):
+        scanned.append(calibrated)
+        return [np.full(len(fs), 1.0), np.full(len(fs), 2.0)]  # best first
+    monkeypatch.setattr(calibration, "starts", starts)
+    monkeypatch.setattr(ladder, "frees_of", lambda replay, model, free_plant, added: list(free_plant))
+    policy = SimpleNamespace(calibration_restarts=3, explained=lambda r: r.weighted_rms <= 1.2,
+                             accepts=lambda scorer, current, new: new.rss < current.rss)
+    timing = Timing()
+    timing.switch("calibration")
+    current = FitResult(plant, {}, 1.0, 100.0 * 1000, 1000, 0, True, "", 1)
+    with Executor(workers) as executor:
+        ctx = SimpleNamespace(replay=None, scorer=None, policy=policy, plan=SimpleNamespace(frees=frees),
+                              tracker=SimpleNamespace(timing=timing), workers=executor)
+        t0 = time.perf_counter()
+        got = ladder.calibrate(ctx, current, (), ())
+        took = time.perf_counter() - t0
+    assert took < 60 and not multiprocessing.active_children(), (took, multiprocessing.active_children())
+    ran = (tmp_path / "ran").read_text().split("\n")[:-1]
+    assert got.rss / 1000 == (20.0 if refit == "pays" else rss)
+    if refit == "pays":
+        assert sorted(ran) == ["model", "point 1", "point 2"] and scanned == [len(frees)]
+        assert workers == 2 or ran == ["model", "point 2", "point 1"]  # the worse point's fit first
+        assert timing.stages["calibration"].replays == 3
+    elif workers == 1:
+        assert ran == ["model"] and not scanned
+    else:  # the worse point's fit was running when it was dropped
+        assert ran[0] == "model" and "point 2" in ran and scanned == [len(frees)]
+        assert timing.stages["calibration"].replays == 1

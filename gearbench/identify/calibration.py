@@ -199,7 +199,7 @@ def _bound(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], calibrated: int,
-           n: int | None = None, workers=None, spent=None) -> list[np.ndarray]:
+           n: int | None = None, pool=None, spent=None, until=None) -> list[np.ndarray] | None:
     """Where a calibration's local fit starts again when the one from the current values
     stopped short of the noise: the ``search.LOCAL_STARTS`` best of ``n`` (default
     ``search.point_count``) scrambled Sobol points spread uniformly over the tolerance box of
@@ -207,15 +207,16 @@ def starts(replay: Replay, scorer: Scorer, plant: Plant, frees: list[Free], cali
 
     Why: stick-slip makes the residual jump between branches as the values move (whether the
     load sticks at a reversal), and a local fit from a datasheet's values can end in the wrong
-    one (module docstring of ``tests/test_datasheet.py``).  ``workers``: an
-    :class:`~gearbench.identify.executor.Executor` the scan's points are spread over
-    (:func:`search.scan_on`, each chunk's cost given to ``spent``); without it, here."""
+    one (module docstring of ``tests/test_datasheet.py``).  ``pool``: an
+    :meth:`Executor.pool <gearbench.identify.executor.Executor.pool>` the scan's jobs are submitted
+    to, each one's cost given to ``spent``, and None as soon as ``until()`` is true
+    (``search.scan_in``); without it, here."""
     low, high = bounds_of(frees[:calibrated])
     points = search.around([get_value(plant, f) for f in frees],
                            low + search.unit_points(calibrated, n) * (high - low))
-    ranked = (search.scan(replay, scorer, plant, frees, points) if workers is None
-              else search.scan_on(workers, replay, scorer, plant, frees, points, spent))
-    return [x for _, x in ranked[:search.LOCAL_STARTS]]
+    ranked = (search.scan(replay, scorer, plant, frees, points) if pool is None
+              else search.scan_in(pool, replay, scorer, plant, frees, points, spent, until))
+    return None if ranked is None else [x for _, x in ranked[:search.LOCAL_STARTS]]
 
 
 SPLIT_STEP = 0.01

@@ -16,13 +16,20 @@ Either way the results come back in the order of the jobs, so the ranking, the
 ladder and every number are the ones a local run gives.  What is passed to every job
 of one map (the replay with its record, the scorer, the plant) is sent to the cluster
 once (``Client.scatter``), not once per job.
+
+Where what to run next depends on a job still running (the calibration's fits from a
+scan's points are wanted only if the fit from the model's values does not settle it),
+:meth:`Executor.pool` takes jobs one at a time, on the same workers, and drops the
+ones still running when its block is left.
 """
 from __future__ import annotations
 
-from concurrent.futures import as_completed
-from typing import Any, Callable, Sequence
+import sys
+from concurrent.futures import Future, as_completed
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator, Sequence
 
-from ..workers import dask_client, process_pool, worker_count
+from ..workers import dask_client, kill_workers, process_pool, worker_count
 
 _SMALL = (type(None), bool, int, float, str, tuple)
 """Values left inside each job rather than scattered (cheap to send, and ``()``, ``None``,
@@ -81,6 +88,30 @@ class Executor:
                 progress(out[i])
         return out
 
+    @contextmanager
+    def pool(self) -> Iterator["Pool"]:
+        """A :class:`Pool` to submit jobs to one at a time, on this executor's workers (local
+        processes, or the Dask cluster); leaving the block drops the jobs still running (their
+        local workers killed, their Dask tasks cancelled).  With one worker each job runs in
+        this process when it is submitted: a caller that asks whether a job is ``done()`` before
+        submitting more, and looks at its result if so, runs no job it does not need."""
+        if self._client is not None:
+            pool = Pool(_scattering(self._client))
+            try:
+                yield pool
+            finally:
+                self._client.cancel([f for f in pool.futures if not f.done()])
+            return
+        workers = worker_count(self.workers, sys.maxsize)
+        if workers == 1:
+            yield Pool(_here)
+            return
+        with process_pool(workers) as local:
+            pool = Pool(local.submit)
+            yield pool
+            if not all(f.done() for f in pool.futures):
+                kill_workers(local)
+
     def _dask_map(self, fn, jobs, progress, order) -> list:
         """One task per job (``pure=False``: a job is never taken for another's cached result),
         submitted in ``order``; the values shared by every job (tuples of arguments) are scattered
@@ -101,6 +132,48 @@ class Executor:
             raise
 
 
+class Pool:
+    """Jobs submitted one at a time (:meth:`Executor.pool`); each :meth:`submit` returns a
+    future (``result()``, ``done()``)."""
+
+    def __init__(self, submit: Callable):
+        self._submit = submit
+        self.futures: list = []
+
+    def submit(self, fn: Callable[[Any], Any], job) -> Any:
+        """``fn(job)``, started where the pool runs jobs; its future."""
+        self.futures.append(self._submit(fn, job))
+        return self.futures[-1]
+
+
+def _scattering(client) -> Callable:
+    """``submit(fn, job)`` of one Dask task per job (``pure=False``), each argument of a job tuple
+    that is not a :data:`_SMALL` value sent to the cluster once per pool (``Client.scatter``, kept by
+    the object's identity), as :func:`_shared` does for a map: the record travels once."""
+    sent: dict[int, tuple] = {}  # id -> (the object, kept alive so its id is not reused; its future)
+
+    def scattered(x):
+        if isinstance(x, _SMALL):
+            return x
+        if id(x) not in sent:
+            sent[id(x)] = (x, client.scatter(x, hash=False))
+        return sent[id(x)][1]
+
+    def submit(fn, job):
+        return client.submit(fn, tuple(map(scattered, job)) if isinstance(job, tuple) else job, pure=False)
+    return submit
+
+
+def _here(fn: Callable[[Any], Any], job) -> Future:
+    """``fn(job)`` run now, in this process, as a done future (its exception kept for ``result()``)."""
+    fut: Future = Future()
+    try:
+        fut.set_result(fn(job))
+    except Exception as exc:  # noqa: BLE001 - raised again by result(), as a pool's future does
+        fut.set_exception(exc)
+    return fut
+
+
 def _shared(client, jobs: list) -> list:
     """``jobs`` (tuples of arguments) with each argument that is one and the same object in every job
     (and not a :data:`_SMALL` value) replaced by one future of it, scattered once: the record then
@@ -116,4 +189,4 @@ def _shared(client, jobs: list) -> list:
     return [tuple(futures.get(i, x) for i, x in enumerate(j)) for j in jobs]
 
 
-__all__ = ["Executor"]
+__all__ = ["Executor", "Pool"]

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field, replace
+from functools import cache
 from typing import Iterator
 
 import numpy as np
@@ -30,9 +31,10 @@ from .candidates import (Pair, Trial, Tried, candidates, fit_each, fit_each_late
 from .executor import Executor
 from .fit import FitResult, Free, get_value, plant_frees, sharpen
 from .scoring import Scorer, bic_drop
+from .timing import Cost
 from .policy import Policy
 from .progress import Tracker
-from .refit import best_fit, frees_of, refit
+from .refit import best_fit, frees_of, refit, refit_job
 from .replay import Replay
 from .uncertainty import strong_correlations
 
@@ -471,54 +473,89 @@ def _along_the_valley(ctx: Context, state: State, number: int) -> State | None:
 
 def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) -> FitResult | None:
     """The datasheet values ``ctx.plan.frees`` fitted with ``free_plant`` and the effects numbered
-    ``added`` (``refit``, central differences, restarts), from the model's values; where that
-    pays (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors,
-    also from the best points of a scan of the tolerance box (``calibration.starts``), fitted where
-    ``ctx.workers`` runs them (in parallel), the best fit kept, its standard errors not yet
-    sharpened (``fit.sharpen``: :func:`_calibration` sharpens the one it accepts).  On 8 s of the
-    bench rig with p04's datasheet errors and Coulomb friction hidden at the load, fitted with the
-    friction: from the file's values 25.9x the noise floors (load inertia 0.00545 kg m^2 for
-    0.006), from the scan's best points 2.07x, the truth 0.99x; in the ladder, after a pair with a
-    load spring, 0.988x (``tests/test_datasheet.py``)."""
+    ``added`` (central differences, restarts), from the model's values; where that pays
+    (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors, also
+    from the best points of a scan of the tolerance box (``calibration.starts``); the best fit
+    kept (None when none converged), its standard errors not yet sharpened (``fit.sharpen``:
+    :func:`_calibration` sharpens the one it accepts).  On 8 s of the bench rig with p04's datasheet
+    errors and Coulomb friction hidden at the load, fitted with the friction: from the file's values
+    25.9x the noise floors (load inertia 0.00545 kg m^2 for 0.006), from the scan's best points
+    2.07x, the truth 0.99x; in the ladder, after a pair with a load spring, 0.988x
+    (``tests/test_datasheet.py``).
+
+    With several workers the scan and its points' fits do not wait for the fit from the model's
+    values: they start on the workers it leaves free, the worse point's first (it has further to
+    go), and are dropped when that fit settles the calibration alone (not counted in ``timing``, so
+    its counts are those of one worker, which never starts them).  On practice records p04 and
+    p08 the fit from the model's values took 709 and 830 replays, and the longer of the points'
+    fits 1,396 and 1,579, which had waited for it (``docs/speed.md``)."""
     replay, scorer, policy, model = ctx.replay, ctx.scorer, ctx.policy, res.plant
-    cal_frees: list[Free] = ctx.plan.frees
-    cal = refit(replay, scorer, model, tuple(free_plant) + tuple(cal_frees), added, central=True,
-                restarts=policy.calibration_restarts, sharp=False)
-    if cal is None or policy.explained(cal) or not policy.accepts(scorer, res, cal):
-        return cal
+    cal_frees, restarts, spent = ctx.plan.frees, policy.calibration_restarts, ctx.tracker.timing.add_here
+    own = frees_of(replay, model, tuple(free_plant) + tuple(cal_frees), added)
     frees = frees_of(replay, model, tuple(cal_frees) + tuple(free_plant), added)
-    jobs = [(replay, scorer, model, frees, list(x), policy.calibration_restarts)
-            for x in calibration.starts(replay, scorer, model, frees, len(cal_frees), workers=ctx.workers,
-                                        spent=ctx.tracker.timing.add_here)]
-    fits = []
-    for got, spent in ctx.workers.map(calibration.fit_from, jobs):
-        ctx.tracker.timing.add_here(spent)
-        fits.append(got)
-    return best_fit([cal] + [f for f in fits if f.converged])
+    with ctx.workers.pool() as pool:
+        first = pool.submit(calibration.fit_from, (replay, scorer, model, own, None, restarts))
+
+        @cache
+        def refitted() -> FitResult | None:
+            got, cost = first.result()
+            spent(cost)
+            return got if got.converged else None
+
+        def alone() -> bool:  # the fit from the model's values settles it: no point's fit is wanted
+            cal = refitted()
+            return cal is None or policy.explained(cal) or not policy.accepts(scorer, res, cal)
+
+        def settled() -> bool:  # ... and it is in
+            return first.done() and alone()
+
+        if settled():  # one worker: it ran first, by itself
+            return refitted()
+        scanned: list[Cost] = []  # counted once wanted: the counts are those of one worker's work
+        points = calibration.starts(replay, scorer, model, frees, len(cal_frees), pool=pool, spent=scanned.append,
+                                    until=settled)
+        if points is None:
+            return refitted()
+        fits = [pool.submit(calibration.fit_from, (replay, scorer, model, frees, list(x), restarts))
+                for x in reversed(points)]
+        if alone():
+            return refitted()  # leaving the pool drops the points' fits
+        for cost in scanned:
+            spent(cost)
+        got = []
+        for job in reversed(fits):
+            fitted, cost = job.result()
+            spent(cost)
+            got.append(fitted)
+    return best_fit([refitted()] + [f for f in got if f.converged])
 
 
 def removals(replay: Replay, scorer: Scorer, policy: Policy, res: FitResult, first: int,
-             free_plant) -> list[tuple[AddedEffect, FitResult, float]]:
+             free_plant, workers: Executor | None = None, spent=None) -> list[tuple[AddedEffect, FitResult, float]]:
     """Stepwise backwards: with two or more effects past the plant's own ``first``, each is
     refitted out (the newest too: it was judged against the model before it, not against the
     same effects refitted); one whose removal the model with it does not beat by the criterion
     that added it (``Policy.accepts``) no longer pays and comes out, the one that pays least
     first, until every effect left pays.  Returns ``(removed effect, model without it, BIC
-    change)``."""
+    change)``.  ``workers``: an :class:`Executor` the refits of one step run on (in this process
+    without it), each one's cost given to ``spent``."""
     out = []
     while len(res.plant.effects) - first >= 2:
+        effects = res.plant.effects
+        jobs = [(replay, scorer, replace(res.plant, effects=effects[:i] + effects[i + 1:]), free_plant,
+                 range(first, len(effects) - 1)) for i in range(first, len(effects))]
         options = []
-        for i in range(first, len(res.plant.effects)):
-            effects = res.plant.effects[:i] + res.plant.effects[i + 1:]
-            r = refit(replay, scorer, replace(res.plant, effects=effects), free_plant, range(first, len(effects)),
-                      sharp=False)
+        for i, (r, cost) in zip(range(first, len(effects)),
+                                workers.map(refit_job, jobs) if workers is not None else map(refit_job, jobs)):
+            if spent is not None:
+                spent(cost)
             if r is not None and not policy.accepts(scorer, r, res):
                 options.append((bic_drop(scorer, r, res), i, r))
         if not options:
             break
         gain, i, r = min(options, key=lambda o: o[0])
         r = sharpen(replay, scorer, r)
-        out.append((res.plant.effects[i], r, gain))
+        out.append((effects[i], r, gain))
         res = r
     return out
 
@@ -528,7 +565,8 @@ def _prune(ctx: Context, state: State, after: str, number: int) -> Iterator[Stat
     names what came in."""
     ctx.tracker.stage("prune", number, max(0, len(state.model.plant.effects) - len(ctx.plant.effects)))
     first = len(ctx.plant.effects)
-    for gone, without, gain in removals(ctx.replay, ctx.scorer, ctx.policy, state.model, first, state.refitted):
+    for gone, without, gain in removals(ctx.replay, ctx.scorer, ctx.policy, state.model, first, state.refitted,
+                                        ctx.workers, ctx.tracker.timing.add_here):
         i = state.model.plant.effects.index(gone) - first
         rung = Rung("remove", gone.name, {k: v for k, v in gone.values.items() if isinstance(v, str)},
                     {k: v for k, v in gone.values.items() if not isinstance(v, str)}, {}, without,

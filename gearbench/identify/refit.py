@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import math
 
+from ..blas import single_threaded
+from ..errors import ReplayError
 from ..plant.components import Plant
 from .fit import Free, FitResult, evaluate, fit, plant_frees
-from ..errors import ReplayError
+from .timing import Cost, costed
 
 
 def frees_of(replay, plant: Plant, free_plant, effects) -> list[Free]:
@@ -30,6 +32,15 @@ def refit(replay, scorer, plant: Plant, free_plant, effects, central: bool = Fal
     except (ReplayError, ValueError):
         return None
     return r if r.converged else None
+
+
+@single_threaded
+def refit_job(job) -> tuple[FitResult | None, Cost]:
+    """:func:`refit` of one job tuple ``(replay, scorer, plant, free_plant, effects)`` (what an
+    :class:`~gearbench.identify.executor.Executor` maps), forward differences, the standard errors
+    not sharpened; with what it cost where it ran."""
+    replay, scorer, plant, free_plant, effects = job
+    return costed(refit, replay, scorer, plant, free_plant, effects, sharp=False)
 
 
 AT_FLOORS = 1.0

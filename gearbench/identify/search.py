@@ -25,6 +25,7 @@ fits rank best (``Policy.second_top``, ``ladder.screen``, ``ladder.fit_pairs``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.stats import qmc
@@ -132,22 +133,41 @@ def scan_chunk(job) -> tuple[list[tuple[float, np.ndarray]], Cost]:
 
 
 SCAN_CHUNK = 8
-"""Points per job of a scan spread over workers (:func:`scan_on`)."""
+"""Points per job of a scan spread over workers (:func:`scan_in`)."""
 
 
-def scan_on(workers, replay: Replay, scorer: Scorer, plant, frees: list[Free], points,
-            spent=None) -> list[tuple[float, np.ndarray]]:
-    """:func:`scan`, its points in chunks of :data:`SCAN_CHUNK` where ``workers`` (an
-    :class:`~gearbench.identify.executor.Executor`) runs them; each chunk's cost is given to
-    ``spent`` (a callable), the same ranking as :func:`scan`'s (a stable sort of the same list)."""
-    chunks = [points[i:i + SCAN_CHUNK] for i in range(0, len(points), SCAN_CHUNK)]
+def scan_in(pool, replay: Replay, scorer: Scorer, plant, frees: list[Free], points, spent=None,
+            until: Callable[[], bool] | None = None) -> list[tuple[float, np.ndarray]] | None:
+    """:func:`scan`'s ranking, its points in jobs of :data:`SCAN_CHUNK` (:func:`scan_chunk`)
+    submitted to ``pool`` (an :meth:`Executor.pool <gearbench.identify.executor.Executor.pool>`):
+    the same list, stably sorted; each job's cost is given to ``spent`` (a callable).  None as soon
+    as ``until()`` is true, asked before each job's result is waited for and after the last (the
+    jobs still running are dropped with the pool)."""
+    jobs = [pool.submit(scan_chunk, (replay, scorer, plant, frees, points[i:i + SCAN_CHUNK]))
+            for i in range(0, len(points), SCAN_CHUNK)]
+    stop = until or (lambda: False)
+    parts = []
+    for job in jobs:
+        if stop():
+            return None
+        parts.append(job.result())
+    if stop():
+        return None
     out = []
-    for part, cost in workers.map(scan_chunk, [(replay, scorer, plant, frees, c) for c in chunks]):
+    for part, cost in parts:
         out += part
         if spent is not None:
             spent(cost)
     out.sort(key=lambda c: c[0])
     return out
+
+
+def scan_on(workers, replay: Replay, scorer: Scorer, plant, frees: list[Free], points,
+            spent=None) -> list[tuple[float, np.ndarray]]:
+    """:func:`scan` where ``workers`` (an :class:`~gearbench.identify.executor.Executor`) runs it
+    (:func:`scan_in`)."""
+    with workers.pool() as pool:
+        return scan_in(pool, replay, scorer, plant, frees, points, spent)
 
 
 def starts(replay: Replay, scorer: Scorer, plant, frees: list[Free], scanned: int, start,
