@@ -251,9 +251,8 @@ def test_a_fit_holds_the_replays_resets_while_it_moves():
 def test_a_calibration_starts_again_from_the_best_points_of_its_tolerance_box():
     """``calibration.starts``: the best ``search.LOCAL_STARTS`` of a Sobol scan inside the box,
     best first, the same on every call and with its scan on two worker processes (none when told to
-    stop waiting for it); values past
-    ``calibrated`` stay where the plant has them.  From p04's datasheet errors the best point is
-    nearer the truth than the file's values."""
+    stop waiting for it); values past ``calibrated`` stay where the plant has them.  From p04's
+    datasheet errors the best point is nearer the truth than the file's values."""
     from gearbench.identify import search
     from gearbench.identify.executor import Executor
     from gearbench.identify.fit import get_value, set_values
@@ -410,5 +409,5 @@ def test_a_calibration_fits_its_scan_points_only_when_the_fit_from_the_models_va
     elif workers == 1:
         assert ran == ["model"] and not scanned
     else:  # the worse point's fit was running when it was dropped
-        assert ran[0] == "model" and "point 2" in ran and scanned == [len(frees)]
+        assert "model" in ran and "point 2" in ran and scanned == [len(frees)]
         assert timing.stages["calibration"].replays == 1
