@@ -491,6 +491,8 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     fits 1,396 and 1,579, which had waited for it (``docs/speed.md``)."""
     replay, scorer, policy, model = ctx.replay, ctx.scorer, ctx.policy, res.plant
     cal_frees, restarts, spent = ctx.plan.frees, policy.calibration_restarts, ctx.tracker.timing.add_here
+    # the same values in two orders: the first fit keeps refit's (the free plant values first), the
+    # scan takes the calibrated ones first (``calibration.starts`` scans the first len(cal_frees))
     own = frees_of(replay, model, tuple(free_plant) + tuple(cal_frees), added)
     frees = frees_of(replay, model, tuple(cal_frees) + tuple(free_plant), added)
     with ctx.workers.pool() as pool:
@@ -545,8 +547,7 @@ def removals(replay: Replay, scorer: Scorer, policy: Policy, res: FitResult, fir
         jobs = [(replay, scorer, replace(res.plant, effects=effects[:i] + effects[i + 1:]), free_plant,
                  range(first, len(effects) - 1)) for i in range(first, len(effects))]
         options = []
-        for i, (r, cost) in zip(range(first, len(effects)),
-                                workers.map(refit_job, jobs) if workers is not None else map(refit_job, jobs)):
+        for i, (r, cost) in zip(range(first, len(effects)), (workers or Executor(1)).map(refit_job, jobs)):
             if spent is not None:
                 spent(cost)
             if r is not None and not policy.accepts(scorer, r, res):
