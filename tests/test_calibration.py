@@ -154,7 +154,9 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
     more, while a round lowers the replay's RSS by more than RESTART_GAIN; a round that ends worse,
     or does not converge, is dropped and the one it started from kept (scipy's least squares
     replaced by a script of its ends; the RSS is the replay's, of a 0.5 s record of the true plant:
-    the further from 1.0, the larger; the record is one window, so its resets never change)."""
+    the further from 1.0, the larger; the record is one window, so its resets never change).  The
+    fit starts at 1.5, worse than every end (a first round that ends worse than its start is
+    dropped too: ``tests/test_secant.py``)."""
     from types import SimpleNamespace
 
     import numpy as np
@@ -175,14 +177,15 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
             return SimpleNamespace(x=np.array([z]), cost=0.0, status=status, nfev=5, jac=np.ones((1, 1)),
                                    message=f"end {len(calls)}")
         monkeypatch.setattr(fit_module, "least_squares", scripted)
-        return fit(replay, plant, free, restarts=restarts, rounds_below=below), calls
+        return fit(replay, plant, free, restarts=restarts, rounds_below=below,
+                   start=[1.5 * plant.motor.resistance]), calls
 
     def value(r):
         return r.values["motor.resistance"] / plant.motor.resistance
 
     xtol, gtol, budget = 3, 1, 0
     r, calls = run([(xtol, 1.3), (xtol, 1.2), (xtol, 1.19999), (xtol, 1.1)], restarts=3)
-    assert calls == pytest.approx([1.0, 1.3, 1.2])  # each round starts where the last stopped (scaled)
+    assert calls == pytest.approx([1.5, 1.3, 1.2])  # each round starts where the last stopped (scaled)
     assert r.converged and value(r) == pytest.approx(1.19999)  # kept, but it gained less than 0.1 %: no 4th
     assert r.message == "end 3 (restarted 2x)" and r.nfev == 3 * 5 + 3
     r, calls = run([(xtol, 1.3), (budget, 1.1)], restarts=3)  # a better end that did not converge

@@ -19,7 +19,10 @@ import yaml
 from conftest import DATA
 from gearbench.experiment.files import load_plant, plant_from_dict
 from gearbench.identify.compare import comparison
+from gearbench.identify.fit import evaluate
+from gearbench.identify.refit import refit
 from gearbench.identify.replay import Replay
+from gearbench.identify.scoring import Scorer
 from gearbench.measure.data import read_measurement
 from gearbench.plant.effects import AddedEffect
 
@@ -387,6 +390,32 @@ def test_the_true_plant_replays_each_real_sensor_record_to_its_true_noise(case):
 def test_window_resets_from_coloured_noise_keep_the_true_plant_at_its_noise():
     _, ratios = replay_of_the_truth("p10", window_s=1.0)
     assert all(r < 1.05 for r in ratios.values()), ratios
+
+
+def test_a_fit_that_a_false_reset_makes_worse_ends_where_it_started():
+    """p10 (coloured noise, a Coulomb friction of 0.03 N m at the load): diagnose simplifies a
+    Stribeck law to Coulomb friction by refitting the latter from the former's sliding level
+    (``Effect.simpler``).  From the law p10's diagnosis ended with on 2026-12-02, that refit's
+    least squares ended with a reset at the false seam of the strict xfail above (10.525 s), worse
+    than its start by the replay's own resets (RSS 622,479 against 589,543), and the BIC kept the
+    Stribeck law.  A fit now ends no worse than its start: the Coulomb friction wins on BIC, at the
+    truth within 1 %.  (Its standard error, 1.7e-7 N m, does not cover the truth 3.6e-6 away: the
+    record's noise is not what the criterion's covariance assumes; not asserted.)"""
+    folder = DATA / "cases" / "p10"
+    truth = yaml.safe_load((folder / "truth.yaml").read_text())["hidden_effects"][0]["params"]["torque"]
+    plant = load_plant(folder / "nominal.yaml")
+    replay = Replay(read_measurement(folder / "data.csv"))
+    scorer = Scorer(replay)
+    law = AddedEffect("stribeck_friction", {"location": "load", "static_torque": 0.039843129494210164,
+                                            "coulomb_torque": 0.029996428833628415,
+                                            "stribeck_speed": 0.00021926658881757778})
+    stribeck = evaluate(replay, scorer, plant.with_effects(law))
+    coulomb = plant.with_effects(AddedEffect(*law.effect.simpler(law.values)))
+    start = evaluate(replay, scorer, coulomb)
+    got = refit(replay, scorer, coulomb, (), (0,))
+    assert got.converged and got.rss <= start.rss, got.message
+    assert got.bic < replace(stribeck, k=3).bic
+    assert got.params["effects[0].torque"].value == pytest.approx(truth, rel=0.01)
 
 
 def test_a_fit_of_an_absent_friction_stops_at_its_floor_above_the_chatter():

@@ -238,3 +238,37 @@ def test_only_a_trial_foretold_to_gain_less_than_ftol_after_a_rejection_is_withh
     n = fun.calls
     secant.residual(z1 + 1e-12 * step)
     assert fun.calls == n + 1
+
+
+class Seamed:
+    """A fit's replays (``fit._Trials``' two calls) where a reset switches on past ``z = 0.5``: with
+    the resets held, the residual ``z - 1`` has its least squares at 1; by the replay's own resets
+    the RSS there is ``jump`` more."""
+
+    def __init__(self, jump: float):
+        self.jump = jump
+
+    def residual(self, z, seams):
+        return np.array([z[0] - 1.0, 0.5 * (z[0] - 1.0)])
+
+    def settle(self, z):
+        seams = (7,) if z[0] > 0.5 else ()
+        r = self.residual(z, seams)
+        return seams, float(r @ r) + (self.jump if seams else 0.0)
+
+
+@pytest.mark.parametrize("jump, back", [(10.0, True), (0.5, False)])
+def test_a_fit_whose_first_round_ends_worse_by_its_own_resets_ends_where_it_started(jump, back):
+    """The first round of a fit's least squares is held to its start's resets; where its end scores
+    worse than the start by the replay's own resets, the fit ends at the start, with the start's
+    Jacobian for the standard errors; where better, at the end.  The start scores 1.25 (at z = 0)."""
+    z0 = np.array([0.0])
+    res, nfev, rounds = fit_module._rounds(Seamed(jump), z0, (np.array([-5.0]), np.array([5.0])),
+                                           central=False, max_nfev=50, restarts=0, rounds_below=None)
+    assert res.status > 0 and nfev > 1
+    if back:
+        assert np.array_equal(res.x, z0) and rounds == 0 and "ended where it started" in res.message
+        np.testing.assert_allclose(res.fun, [-1.0, -0.5])
+        np.testing.assert_allclose(res.jac, [[1.0], [0.5]], rtol=1e-9)
+    else:
+        np.testing.assert_allclose(res.x, [1.0], atol=1e-6)

@@ -510,11 +510,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     own (``tests/test_datasheet.py``).  A round must be allowed to end where its resets differ:
     the fit ended where its start's resets, no longer needed, stayed held, and the standard
     errors' coverage (``tests/test_uncertainty.py``) fell to 72 %.
-    The first round too: a fit whose least squares ends worse than its start by the replay's own
-    resets ends where it started (the start's Jacobian gives the standard errors).  On practice
-    record p10 (coloured noise) the simplification's refit of Coulomb friction from a Stribeck
-    law's sliding level, 0.0299964 N m, ended 2e-5 of itself away with a reset at a false seam,
-    at RSS 622,479 where its start scored 589,543: the BIC kept the Stribeck law.
+    The first round too: a fit that ends worse than its start so ends where it started (:func:`_rounds`).
 
     ``rounds_below``: start another round only while the RSS (by the replay's own resets) is
     below this by more than :data:`RESTART_GAIN`.  Diagnose's screen passes the RSS of the model
@@ -555,7 +551,13 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
 def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts: int,
             rounds_below: float | None):
     """:func:`fit`'s rounds of least squares from ``z0``, each with the resets held where the last
-    ended: the kept round's ``least_squares`` result, the replays spent and the rounds after the first."""
+    ended: the kept round's ``least_squares`` result, the replays spent and the rounds after the first.
+
+    Where the first round ends worse than ``z0`` by the replay's own resets, the result is ``z0``'s,
+    with the Jacobian there for the standard errors.  Why: on practice record p10 (coloured noise)
+    the simplification's refit of Coulomb friction from a Stribeck law's sliding level, 0.0299964
+    N m, ended 2e-5 of itself away with a reset at a false seam, RSS 622,479 where its start scored
+    589,543, and the BIC kept the Stribeck law."""
     nfev, kept, rounds = 0, None, 0
     seams, start_rss = trials.settle(z0)
     for rounds in range(max(restarts, 1) + 1):
