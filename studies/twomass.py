@@ -414,12 +414,13 @@ def findings(r: dict) -> list[str]:
         ok = rec[key] is not None and abs(rec[key] - src[key]) <= tol
         out.append(f"The record's {key.split('_')[0]} {_fmt(rec[key])} Hz {'agrees' if ok else 'disagrees'} with the "
                    f"source's {src[key]} Hz (tolerance {tol:g} Hz: the grid's {df:g} Hz plus the figure's reading).")
+    hits = {}
     for name, feat in r["model_features"].items():
         und = feat["undamped"]
         if und is None:
             out.append(f"{name}: no coupling, so no resonance.")
             continue
-        hit = abs(und["resonance_hz"] - src["resonance_hz"]) <= max(tol, 0.05 * src["resonance_hz"])
+        hit = hits[name] = abs(und["resonance_hz"] - src["resonance_hz"]) <= max(tol, 0.05 * src["resonance_hz"])
         out.append(f"{name}: its coupling resonates at {und['resonance_hz']:.4g} Hz (anti-resonance "
                    f"{und['antiresonance_hz']:.4g} Hz), {'within 5 % of' if hit else 'not'} the source's "
                    f"{src['resonance_hz']} Hz{'' if hit else ': it is not the bench coupling'}.")
@@ -436,7 +437,10 @@ def findings(r: dict) -> list[str]:
                f"{'beats' if r['stated']['validation_error_deg'] < d['rungs'][-1]['validation_error_deg'] else 'does not beat'} "
                f"it on record B ({r['stated']['validation_error_deg']:.3g} against "
                f"{d['rungs'][-1]['validation_error_deg']:.3g} deg)"
-               + (": diagnose's search of a shaft's parameters did not reach the coupling's basin." if better else "."))
+               + ("." if not better else
+                  ": diagnose's final model resonates at the source's resonance too; they differ in the other values."
+                  if hits.get("diagnose's final model") else
+                  ": diagnose's search of a shaft's parameters did not reach the coupling's basin."))
     return out
 
 
