@@ -399,8 +399,8 @@ def test_a_fit_that_a_false_reset_makes_worse_ends_where_it_started():
     least squares ended with a reset at the false seam of the strict xfail above (10.525 s), worse
     than its start by the replay's own resets (RSS 622,479 against 589,543), and the BIC kept the
     Stribeck law.  A fit now ends no worse than its start: the Coulomb friction wins on BIC, at the
-    truth within 1 %.  (Its standard error, 1.7e-7 N m, does not cover the truth 3.6e-6 away: the
-    record's noise is not what the criterion's covariance assumes; not asserted.)"""
+    truth within 1 %.  (Its standard error, 1.7e-7 N m, does not cover the truth, 3.6e-6 away: a
+    bias of 1.2e-4 of the level that the noise does not explain; not traced, not asserted.)"""
     folder = DATA / "cases" / "p10"
     truth = yaml.safe_load((folder / "truth.yaml").read_text())["hidden_effects"][0]["params"]["torque"]
     plant = load_plant(folder / "nominal.yaml")
