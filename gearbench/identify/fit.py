@@ -327,9 +327,13 @@ class SecantJacobian:
         self.calls = 0           # residuals replayed (least_squares' nfev)
         self.updated = False     # whether the last Jacobian given was a secant update
         self.updates = 0         # secant updates given
-        self.start_rss = math.inf  # the residual's sum of squares at the first Jacobian's point
         self.first = None        # (z, r, J) at the first Jacobian's point
         self.poor = 0            # steps in a row the linear model foretold poorly
+
+    @property
+    def start_rss(self) -> float:
+        """The residual's sum of squares at the first Jacobian's point (inf before it)."""
+        return math.inf if self.first is None else float(self.first[1] @ self.first[1])
 
     def residual(self, z):
         z = np.array(z, dtype=float)
@@ -369,9 +373,7 @@ class SecantJacobian:
         z = np.array(z, dtype=float)
         first = len(self.trials) == 1 and np.array_equal(self.trials[0][0], z)
         r = self.trials[-1][1] if self.trials and np.array_equal(self.trials[-1][0], z) else self.fun(z)
-        if self.J is None:
-            self.start_rss = float(r @ r)
-        else:
+        if self.J is not None:
             self.poor = self.poor + 1 if self._poorly_foretold(z, r) else 0
         if self.J is None or not first or self.poor >= POOR_STEPS:
             self.J = self.fresh(z, r)
