@@ -173,6 +173,33 @@ def test_a_declared_confounder_is_paired_whatever_it_ranks_alone():
     assert (0, 7) in order and order.index((0, 7)) < order.index((1, 2))
 
 
+def test_a_confounder_is_paired_on_its_own_shaft_too():
+    """A bias acts on the load; Coulomb friction ranked best at the motor alone is paired with it
+    there and from the load too (what confounds them is acting alike on one shaft), each pair once
+    whether the bias ranks among the best or not, the better-ranked member first."""
+    plant = _rig()
+
+    def tried(names):
+        return [Tried(Candidate(name, dict(options)), FitResult(plant, {}, 1.0 + i, 1.0, 100, 1, True, "", 5),
+                      {p.name: 0.5 for p in REGISTRY[name].params})
+                for i, (name, options) in enumerate(names)]
+
+    for bias_rank in (1, 8):  # among the six best effects, and the seventh
+        ranked = [("coulomb_friction", {"location": "motor"}), ("viscous_friction", {"location": "motor"}),
+                  ("sensor_delay", {}), ("shaft_compliance", {}), ("coulomb_friction", {"location": "load"}),
+                  ("viscous_friction", {"location": "load"}), ("amplifier_deadzone", {}), ("backlash", {})]
+        ranked.insert(bias_rank, ("bias_torque", {"location": "load"}))
+        jobs = pair_jobs(None, None, plant, tried(ranked), (), (), Policy().pair_top)
+        with_bias = [(j[3].candidate.name, j[3].candidate.options["location"]) for j in jobs
+                     if j[4].candidate.name == "bias_torque"]
+        assert with_bias == [("coulomb_friction", "motor"), ("coulomb_friction", "load")], bias_rank
+        pairs = [frozenset((id(j[3]), id(j[4]))) for j in jobs]
+        assert len(pairs) == len(set(pairs))
+        # the viscous friction declares no confounder: paired from its best place only
+        assert [j[3].candidate.options for j in jobs if j[3].candidate.name == "viscous_friction"
+                and j[4].candidate.name == "sensor_delay"] == [{"location": "motor"}]
+
+
 def _six_ranked(plant) -> list[Tried]:
     """Six effects' fits, ranked (BIC 1, 2, ...), for the pair stage's tests: no replay behind them."""
     ranked = ["load_spring", "stribeck_friction", "coulomb_friction", "viscous_friction", "sensor_delay",

@@ -244,10 +244,36 @@ def test_diagnose_with_coloured_noise_read_from_the_record_says_what_is_left(rig
     4.7e-7 N m at the motor (1e-5 of its typical 0.048) moved them from 8 window seams to 10 and
     the weighted RMS from 3.579 to 3.470 (3.04 %, past the 3 % rule; taken from 401d868 to
     f1114f2).  With the resets at the same seams it does not pay (3.669 at the right model's, the
-    right model 3.502 at its own), and ``Policy.accepts`` now asks that (2026-11-28, 36 s)."""
+    right model 3.502 at its own), and ``Policy.accepts`` now asks that (2026-11-28, 36 s).  Since a
+    fit ends no worse than its start by the replay's own resets (``fit._rounds``, bab4078) that
+    friction no longer ends at a false seam; the best candidate is a bias of -1.1e-6 N m, which pays
+    by no resets (BIC change -51.5 counting the residual's correlation, weighted RMS 3.579 -> 3.521;
+    2026-12-02, 37 s), and the reason gives its numbers (what the reason says of a candidate that
+    pays only by its resets: ``test_a_candidate_that_pays_only_by_its_resets_is_said_so``)."""
     m = coloured(rig, 11, duration_s=16.0, options=SolverOptions(rtol=1e-9, max_step_s=1e-3))
     d = diagnose(rig, Replay(m))
     assert d.verdict is None and d.stopped == "nothing pays"
-    assert "pay only by where the replay resets the angles" in d.reason
+    assert "would take the error to" in d.reason and "BIC change" in d.reason
     assert "not driven by the input" in d.reason and "not in the library" not in d.reason
     assert all(t["input_independent"] and not t["white"] for t in d.to_json()["residual_tests"].values())
+
+
+def test_a_candidate_that_pays_only_by_its_resets_is_said_so(monkeypatch):
+    """``explain.seams_text``: a candidate that pays by its own window resets (``Policy.pays``) but
+    not with the model's (``Policy.accepts``) is said to pay only by where the replay resets the
+    angles, with both models scored at each other's seams; one that does not pay by its own says
+    nothing."""
+    from types import SimpleNamespace
+    from gearbench.identify import explain
+    current = SimpleNamespace(seams=(0, 1000), weighted_rms=3.579)
+    new = SimpleNamespace(seams=(0, 1000, 2000, 3000), weighted_rms=3.470)
+    rescored = {id(new): SimpleNamespace(weighted_rms=3.669), id(current): SimpleNamespace(weighted_rms=3.502)}
+    monkeypatch.setattr(explain, "at_seams", lambda scorer, res, seams: rescored[id(res)])
+    for pays in (True, False):
+        ctx = SimpleNamespace(scorer=None, policy=SimpleNamespace(pays=lambda scorer, a, b: pays))
+        text = explain.seams_text(ctx, current, new)
+        if pays:
+            assert "pay only by where the replay resets the angles (at 4 window seams against the model's 2)" in text
+            assert "the model's give it 3.669x against 3.579x, and its own give the model 3.502x against 3.47x" in text
+        else:
+            assert text == ""

@@ -370,26 +370,55 @@ def fit_pairs_later(jobs, pairs: list[Pair], workers: Executor, progress=None) -
     return [better(p, a) for p, a in zip(pairs, again)]
 
 
+def place_of(t: Tried) -> str | None:
+    """Where a candidate acts (``Effect.places``): its ``location``, or its effect's one place; None
+    for a sensor effect's and one of several places not chosen."""
+    places = REGISTRY[t.candidate.name].places
+    return t.candidate.options.get("location") or (places[0] if len(places) == 1 else None)
+
+
 def pair_jobs(replay, scorer, plant, tried, free_plant, refit, top: int) -> list[tuple]:
     """The arguments of :func:`try_pair` for every pairable pair (:func:`pairable`) of the best
     places of the ``top`` best effects, and of each of them with the best place of each effect
     it is confounded with (:func:`confounders`, either way) wherever that ranked (the best few
     candidates are often one effect in several places; a bias hidden with Coulomb friction ranks
-    low alone, as the friction explains most of what it does).  In the order of the members' ranks
-    alone, the better member's first: the best effect with each of its partners, then the second
-    best, and so on."""
-    best = {}
+    low alone, as the friction explains most of what it does), and with that effect's place on
+    its own shaft, or its own place on that effect's shaft, where the best places differ: what
+    confounds two effects is that they act alike on one shaft, so where one of them ranks best
+    alone is confounded too (a bias on the load hidden with Coulomb friction at the load: each
+    friction alone ranked best at the motor, 20,849 against 20,945 in weighted RSS for Coulomb
+    friction, and the pair with the friction at the motor did not pay).  In the order of the
+    members' ranks alone, the better member's first: the best effect with each of its partners,
+    then the second best, and so on."""
+    best, placed = {}, {}
     for t in tried:
         if t.ok:
             best.setdefault(t.candidate.name, t)
+            placed.setdefault((t.candidate.name, place_of(t)), t)
     order = {name: i for i, name in enumerate(best)}
     tops = list(best.values())[:top]
     names = {t.candidate.name for t in tops}
     pairs = [(a, b) for i, a in enumerate(tops) for b in tops[i + 1:]]
     pairs += [(a, best[name]) for a in tops for name in sorted(confounders(a.candidate.name))
               if name in best and name not in names]
-    pairs.sort(key=lambda p: (order[p[0].candidate.name], order[p[1].candidate.name]))
+    pairs += [same for a in tops for name in sorted(confounders(a.candidate.name)) if name in best
+              for same in _on_one_shaft(a, best[name], placed)]
+    ranked = {}  # the better member first, each pair once
+    for a, b in pairs:
+        a, b = sorted((a, b), key=lambda t: order[t.candidate.name])
+        ranked.setdefault((id(a), id(b)), (a, b))
+    pairs = sorted(ranked.values(), key=lambda p: (order[p[0].candidate.name], order[p[1].candidate.name]))
     return [(replay, scorer, plant, a, b, free_plant, refit) for a, b in pairs if pairable(a, b)]
+
+
+def _on_one_shaft(a: Tried, b: Tried, placed: dict) -> list[tuple[Tried, Tried]]:
+    """``a`` with ``b``'s effect where ``a`` acts, and ``a``'s effect where ``b`` acts with ``b``
+    (``placed``: each effect's best candidate at each place), where ``a`` and ``b`` act apart."""
+    pa, pb = place_of(a), place_of(b)
+    if pa == pb or None in (pa, pb):
+        return []
+    return [pair for pair in ((a, placed.get((b.candidate.name, pa))), (placed.get((a.candidate.name, pb)), b))
+            if None not in pair]
 
 
 def _same_effect(tried: list[Tried]) -> dict[str, list[Tried]]:

@@ -26,9 +26,10 @@ third effect that mimics both.  When the best single leaves more than noise
 and the ladder has room for two rungs, the ``Policy.pair_top`` best candidates are
 refitted in pairs jointly (the best place of each of the ``Policy.pair_top`` best effects, and of
 each of them with the effects it is declared confounded with, ``Effect.confounders``, wherever
-those rank alone; from the best of their single fits and a scan of both effects' parameters;
-``k`` counts both effects' parameters).  The pair of lowest BIC is taken when it beats both the
-current model and the best single candidate by the criterion that adds an
+those rank alone, and with their places on one shaft, ``candidates.pair_jobs``; from the best of
+their single fits and a scan of both effects' parameters; ``k`` counts both effects' parameters).
+The pair of lowest BIC is taken when it beats both the current model and the best single
+candidate by the criterion that adds an
 effect (``Policy.accepts``); it then takes two rungs, each with its explanation:
 first its member that ranked higher alone (its single fit), then the other
 with the joint fit.  Otherwise the best single is added, as before.  When the
