@@ -286,3 +286,56 @@ def test_a_fit_whose_first_round_ends_worse_by_its_own_resets_ends_where_it_star
         np.testing.assert_allclose(res.jac, [[1.0], [0.5]], rtol=1e-9)
     else:
         np.testing.assert_allclose(res.x, [1.0], atol=1e-6)
+
+
+def test_a_lazy_end_jacobian_is_made_only_when_asked_and_is_the_same():
+    """``secant_least_squares(lazy=True)``: a fit that ended after a secant update leaves its
+    finite-difference Jacobian for later (``fresh_jac``), no replay made for it until
+    ``fresh_jacobian`` asks, which then gives exactly the one an eager fit ends with."""
+    bounds = (np.full(2, -np.inf), np.full(2, np.inf))
+    eager = secant_least_squares(beale, np.array([1.0, 1.0]), bounds, max_nfev=400)
+    calls = []
+    lazy = secant_least_squares(lambda z: (calls.append(z), beale(z))[1], np.array([1.0, 1.0]), bounds,
+                                max_nfev=400, lazy=True)
+    assert lazy.fresh_jac is not None
+    before = len(calls)
+    kept = fit_module.fresh_jacobian(lazy)
+    assert len(calls) == before + 2 and kept.fresh_jac is None   # forward differences, 2 values
+    np.testing.assert_array_equal(kept.x, eager.x)
+    np.testing.assert_array_equal(kept.jac, eager.jac)
+
+
+class Moved:
+    """A fit's replays (``fit._Trials``' two calls): Rosenbrock's residual whatever the resets, which
+    switch to other seams once the fit has left its start, so a second round follows the first."""
+
+    def residual(self, z, seams):
+        return rosenbrock(z)
+
+    def settle(self, z):
+        r = rosenbrock(z)
+        return ((7,) if not np.array_equal(z, [-3.0, -4.0]) else ()), float(r @ r)
+
+
+def test_a_round_that_is_not_kept_costs_no_end_jacobian(monkeypatch):
+    """``fit._rounds``: the finite-difference Jacobian at a round's end is for the standard errors
+    of the round kept; a round followed by another costs none (k replays each, 2k central: the
+    calibration's rounds of 8-9 values), and the kept one ends with it."""
+    bounds = (np.full(2, -np.inf), np.full(2, np.inf))
+    made = []
+    fresh = SecantJacobian.fresh
+
+    def counted(self, z, r):
+        made.append((self.fun.keywords["seams"], tuple(z)))
+        return fresh(self, z, r)
+    monkeypatch.setattr(SecantJacobian, "fresh", counted)
+    first = secant_least_squares(partial(Moved().residual, seams=()), np.array([-3.0, -4.0]), bounds, max_nfev=400)
+    assert made[-1] == ((), tuple(first.x))  # the first round alone ends after a secant update: made there
+    made.clear()
+    res, nfev, rounds = fit_module._rounds(Moved(), np.array([-3.0, -4.0]), bounds, central=False,
+                                           max_nfev=400, restarts=0, rounds_below=None)
+    assert rounds == 1 and np.allclose(res.x, [1.0, 1.0], atol=1e-6)
+    assert ((), tuple(first.x)) not in made                     # the first round's end: none
+    assert made[-1] == ((7,), tuple(res.x))                     # the kept round's end: made last
+    np.testing.assert_array_equal(res.jac, fresh(SecantJacobian(partial(Moved().residual, seams=(7,)), bounds,
+                                                                False), res.x, res.fun))

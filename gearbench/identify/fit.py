@@ -388,7 +388,7 @@ class SecantJacobian:
         return self.J
 
 
-def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 200):
+def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 200, lazy: bool = False):
     """``scipy.optimize.least_squares`` of the residual ``fun`` from ``z`` within ``bounds`` (TRF,
     ``ftol`` :data:`FTOL`, ``xtol`` :data:`XTOL`, at most ``max_nfev`` residuals in all) with
     :class:`SecantJacobian` s, a trial foretold to gain less than ``ftol`` not replayed.
@@ -398,7 +398,11 @@ def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 
     shaft compliance of ``studies.hidden_effects`` stopped so at 125.6 N m/rad and 3.19x the noise
     floors; going on, 19.6 for 20 at 1.3x).  The result's ``jac`` is a finite-difference one at
     its end (for the standard errors), its ``nfev`` counts every round's residuals, and its
-    ``start`` is ``(z, r, J)`` at ``z`` (the first finite-difference Jacobian's point)."""
+    ``start`` is ``(z, r, J)`` at ``z`` (the first finite-difference Jacobian's point).
+
+    ``lazy``: where the last Jacobian was a secant update, ``jac`` is that update and
+    ``fresh_jac()`` gives the finite-difference one (:func:`fresh_jacobian`), for a caller that
+    needs it only if it keeps this result: :func:`fit`'s rounds keep one of several."""
     used, start = 0, None
     while True:
         secant = SecantJacobian(fun, bounds, central, FTOL)
@@ -413,9 +417,16 @@ def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 
         if res.status != 3 or not secant.updates or not gained or used >= max_nfev:
             break
         z = res.x
-    if secant.updated:
-        res.jac = secant.fresh(res.x, res.fun)
+    res.fresh_jac = partial(secant.fresh, res.x, res.fun) if secant.updated else None
     res.nfev, res.start = used, start
+    return res if lazy else fresh_jacobian(res)
+
+
+def fresh_jacobian(res):
+    """``res`` (of :func:`secant_least_squares`) with its finite-difference Jacobian at its end as
+    ``jac``, made now if it was left for later (``lazy``)."""
+    if getattr(res, "fresh_jac", None) is not None:
+        res.jac, res.fresh_jac = res.fresh_jac(), None
     return res
 
 
@@ -554,6 +565,8 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
             rounds_below: float | None):
     """:func:`fit`'s rounds of least squares from ``z0``, each with the resets held where the last
     ended: the kept round's ``least_squares`` result, the replays spent and the rounds after the first.
+    Only the kept round's end is given a finite-difference Jacobian (for the standard errors): each
+    round that another follows or replaces would cost k replays for one (2k central; ``lazy``).
 
     Where the first round ends worse than ``z0`` by the replay's own resets, the result is ``z0``'s,
     with the Jacobian there for the standard errors.  Why: on practice record p10 (coloured noise)
@@ -563,7 +576,7 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
     nfev, kept, rounds = 0, None, 0
     seams, start_rss = trials.settle(z0)
     for rounds in range(max(restarts, 1) + 1):
-        res = secant_least_squares(partial(trials.residual, seams=seams), z0, bounds, central, max_nfev)
+        res = secant_least_squares(partial(trials.residual, seams=seams), z0, bounds, central, max_nfev, lazy=True)
         after, rss_after = trials.settle(res.x)
         nfev += res.nfev + 1
         if kept is None and res.status > 0 and rss_after > start_rss:
@@ -578,7 +591,7 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
                 rounds_below is not None and rss_after >= (1.0 - RESTART_GAIN) * rounds_below):
             break
         seams, z0 = after, res.x
-    return res, nfev, rounds
+    return fresh_jacobian(res), nfev, rounds
 
 
 def _the_start(res, start_rss: float, rss_after: float):
