@@ -128,7 +128,7 @@ def test_the_difference_step_does_not_shrink_with_the_value(z):
     np.testing.assert_allclose(fd_step(x), [FD_STEP * max(1.0, abs(z)) * (1 if z >= 0 else -1)])
     for central in (False, True):
         secant = SecantJacobian(rippled, (np.array([-np.inf]), np.array([np.inf])), central)
-        np.testing.assert_allclose(secant.fresh(x, rippled(x))[:, 0], [3.0, -1.0], atol=1e-5)
+        np.testing.assert_allclose(secant.fresh(x, rippled(x), central)[:, 0], [3.0, -1.0], atol=1e-5)
 
 
 def beale(z):
@@ -325,9 +325,9 @@ def test_a_round_that_is_not_kept_costs_no_end_jacobian(monkeypatch):
     made = []
     fresh = SecantJacobian.fresh
 
-    def counted(self, z, r):
+    def counted(self, z, r, central=False):
         made.append((self.fun.keywords["seams"], tuple(z)))
-        return fresh(self, z, r)
+        return fresh(self, z, r, central)
     monkeypatch.setattr(SecantJacobian, "fresh", counted)
     first = secant_least_squares(partial(Moved().residual, seams=()), np.array([-3.0, -4.0]), bounds, max_nfev=400)
     assert made[-1] == ((), tuple(first.x))  # the first round alone ends after a secant update: made there
@@ -339,3 +339,30 @@ def test_a_round_that_is_not_kept_costs_no_end_jacobian(monkeypatch):
     assert made[-1] == ((7,), tuple(res.x))                     # the kept round's end: made last
     np.testing.assert_array_equal(res.jac, fresh(SecantJacobian(partial(Moved().residual, seams=(7,)), bounds,
                                                                 False), res.x, res.fun))
+
+
+@pytest.mark.parametrize("central", [False, True])
+def test_a_central_fit_steps_on_forward_differences_and_ends_on_central_ones(monkeypatch, central):
+    """``central`` is for the standard errors: the Jacobians a fit steps on are forward differences
+    either way (k replays each, not 2k: the calibration's fits of 9 values on practice record p04,
+    1,360 replays with central ones, 775 with forward ones, the same end), and the one at its end
+    is central with ``central`` (Rosenbrock's residual from far, eagerly and lazily)."""
+    methods = []
+    derivative = fit_module.approx_derivative
+
+    def recorded(*args, method, **kwargs):
+        methods.append(method)
+        return derivative(*args, method=method, **kwargs)
+    monkeypatch.setattr(fit_module, "approx_derivative", recorded)
+    bounds = (np.full(2, -np.inf), np.full(2, np.inf))
+    res = secant_least_squares(rosenbrock, np.array([-3.0, -4.0]), bounds, central, max_nfev=400)
+    assert np.allclose(res.x, [1.0, 1.0], atol=1e-6) and len(methods) >= 3
+    end = "3-point" if central else "2-point"
+    assert set(methods[:-1]) == {"2-point"} and methods[-1] == end
+    np.testing.assert_array_equal(res.jac, derivative(rosenbrock, res.x, method=end, abs_step=fd_step(res.x),
+                                                      f0=res.fun, bounds=bounds))
+    methods.clear()
+    lazy = secant_least_squares(rosenbrock, np.array([-3.0, -4.0]), bounds, central, max_nfev=400, lazy=True)
+    assert set(methods) == {"2-point"}                      # the end's is left for later
+    assert lazy.fresh_jac is not None or not central
+    np.testing.assert_array_equal(fit_module.fresh_jacobian(lazy).jac, res.jac)

@@ -258,7 +258,8 @@ def split_points(frees: list[Free], x, ratio: float) -> list[np.ndarray]:
 def fit_from(job) -> tuple[FitResult, Cost]:
     """A calibration's fit from one of :func:`starts`' points, as one job tuple ``(replay, scorer,
     plant, frees, start, restarts)`` (what an :class:`~gearbench.identify.executor.Executor` maps):
-    central differences, ``restarts`` as ``fit``'s, the standard errors not sharpened (the caller
-    sharpens the fit it keeps, ``fit.sharpen``); with what it cost where it ran."""
+    its end's Jacobian by central differences (``fit``'s ``central``), ``restarts`` as ``fit``'s,
+    the standard errors not sharpened (the caller sharpens the fit it keeps, ``fit.sharpen``);
+    with what it cost where it ran."""
     replay, scorer, plant, frees, start, restarts = job
     return costed(fit, replay, plant, frees, scorer, start=start, central=True, restarts=restarts, sharp=False)

@@ -303,10 +303,10 @@ class SecantJacobian:
 
         J+ = J + (r+ - r - J dz) dz^T / (dz^T dz),
 
-    which costs no replay.  Fresh (forward differences of step :func:`fd_step`, central with
-    ``central``) at the start, after a step the
+    which costs no replay.  Fresh (forward differences of step :func:`fd_step`) at the start, after a step the
     trust region rejected at least once, and after :data:`POOR_STEPS` poorly foretold steps in a
-    row; :meth:`fresh` gives the finite-difference one at the end, for the standard errors, and
+    row; :meth:`end` gives the finite-difference one at the end, for the standard errors (central
+    differences with ``central``), and
     :func:`secant_least_squares` goes on with a fresh one (and a fresh trust region) from a stop on
     the step size made after updates.  Why: a finite-difference Jacobian costs a replay per
     parameter, and they were more than half of a diagnosis's replays (issue 18's 4 s record, in
@@ -321,7 +321,7 @@ class SecantJacobian:
 
     def __init__(self, fun, bounds, central: bool, ftol: float = 0.0):
         self.fun, self.bounds, self.ftol = fun, bounds, ftol
-        self.method = "3-point" if central else "2-point"
+        self.central = central
         self.trials: list = []   # (z, r) of each residual since the last Jacobian
         self.J = self.z = self.r = None
         self.calls = 0           # residuals replayed (least_squares' nfev)
@@ -353,14 +353,21 @@ class SecantJacobian:
                               message=f"the next step was foretold to lower the cost by less than "
                                       f"{self.ftol:g} of itself")
 
-    def fresh(self, z, r) -> np.ndarray:
-        """The finite-difference Jacobian at ``z`` (residual ``r`` there)."""
+    def fresh(self, z, r, central: bool = False) -> np.ndarray:
+        """The finite-difference Jacobian at ``z`` (residual ``r`` there): forward differences, central
+        with ``central``."""
         self.updated = False
         # scipy's own differences, with its rule at the bounds (a step leaving them is reversed).  The
         # step is given absolute: scipy's ``rel_step`` takes ``1e-3 |z|``, which near z = 0 (a rest
         # angle at 0 deg) fell to the scale of the replay's solver error: the tutorial's rest angle
         # had a standard error of 8e-9 deg where its estimates spread by 6e-6 over noise seeds
-        return approx_derivative(self.fun, z, method=self.method, abs_step=fd_step(z), f0=r, bounds=self.bounds)
+        return approx_derivative(self.fun, z, method="3-point" if central else "2-point", abs_step=fd_step(z), f0=r,
+                                 bounds=self.bounds)
+
+    def end(self, z, r) -> np.ndarray:
+        """The finite-difference Jacobian at a fit's end ``z`` for its standard errors: central
+        differences with ``central`` (the steps' own are forward: :func:`fit`)."""
+        return self.fresh(z, r, self.central)
 
     def _poorly_foretold(self, z, r) -> bool:
         """Whether the step from the last point to ``z`` lowered the cost by less than
@@ -397,10 +404,11 @@ def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 
     :data:`RESTART_GAIN`, it goes on from there with a fresh Jacobian and trust region (the hidden
     shaft compliance of ``studies.hidden_effects`` stopped so at 125.6 N m/rad and 3.19x the noise
     floors; going on, 19.6 for 20 at 1.3x).  The result's ``jac`` is a finite-difference one at
-    its end (for the standard errors), its ``nfev`` counts every round's residuals, and its
-    ``start`` is ``(z, r, J)`` at ``z`` (the first finite-difference Jacobian's point).
+    its end (for the standard errors; central differences with ``central``, the steps' own forward
+    ones), its ``nfev`` counts every round's residuals, and its ``start`` is ``(z, r, J)`` at ``z``
+    (the first finite-difference Jacobian's point, forward differences).
 
-    ``lazy``: where the last Jacobian was a secant update, ``jac`` is that update and
+    ``lazy``: where the last Jacobian was a secant update or a forward one with ``central``, ``jac`` is that and
     ``fresh_jac()`` gives the finite-difference one (:func:`fresh_jacobian`), for a caller that
     needs it only if it keeps this result: :func:`fit`'s rounds keep one of several."""
     used, start = 0, None
@@ -417,7 +425,7 @@ def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 
         if res.status != 3 or not secant.updates or not gained or used >= max_nfev:
             break
         z = res.x
-    res.fresh_jac = partial(secant.fresh, res.x, res.fun) if secant.updated else None
+    res.fresh_jac = partial(secant.end, res.x, res.fun) if secant.updated or central else None
     res.nfev, res.start = used, start
     return res if lazy else fresh_jacobian(res)
 
@@ -507,10 +515,15 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
         restarts: int = 0, rounds_below: float | None = None, sharp: bool = True) -> FitResult:
     """Fit ``frees`` of ``plant`` to the replayed record.
 
-    ``central``: the Jacobian by central differences (twice the simulations per step).  The
-    datasheet calibration needs it: with forward differences the fit of the bench rig's six
-    values stalled at 1.055x the noise floors where the truth's values give 0.962x (the
-    backlash's impacts make the residual curve within a 0.1 % step), with central ones 0.970x.
+    ``central``: the Jacobian at the end, for the standard errors, by central differences (2k
+    replays for k values, once); the Jacobians the fit steps on are forward differences either way.
+    The datasheet calibration asks for it.  Until 2026-12-02 its steps took central differences
+    too (twice the replays per Jacobian): with forward ones the fit of the bench rig's six values
+    had stalled at 1.055x the noise floors, where the truth's values give 0.962x and central ones
+    0.970x (the backlash's impacts make the residual curve within a 0.1 % step), but that was
+    before the fits held the replay's resets in rounds.  Since, on practice record p04, the
+    calibration's three fits of nine values took 775, 384 and 417 replays with forward steps
+    against 1,360, 691 and 488 with central ones, to the same ends (RSS within 0.05 %).
 
     The least squares runs in rounds, each with the replay's window resets held where they are
     at its start (``Replay.run(seams=...)``): the test that decides whether a seam resets switches
@@ -576,11 +589,12 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
     nfev, kept, rounds = 0, None, 0
     seams, start_rss = trials.settle(z0)
     for rounds in range(max(restarts, 1) + 1):
-        res = secant_least_squares(partial(trials.residual, seams=seams), z0, bounds, central, max_nfev, lazy=True)
+        fun = partial(trials.residual, seams=seams)
+        res = secant_least_squares(fun, z0, bounds, central, max_nfev, lazy=True)
         after, rss_after = trials.settle(res.x)
         nfev += res.nfev + 1
         if kept is None and res.status > 0 and rss_after > start_rss:
-            return _the_start(res, start_rss, rss_after), nfev, 0
+            return _the_start(res, start_rss, rss_after, SecantJacobian(fun, bounds, central)), nfev, 0
         if kept is not None and (res.status <= 0 or rss_after > kept[1]):
             res = kept[0]  # worse, or it did not converge: keep the round it started from
             break
@@ -594,10 +608,12 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
     return fresh_jacobian(res), nfev, rounds
 
 
-def _the_start(res, start_rss: float, rss_after: float):
+def _the_start(res, start_rss: float, rss_after: float, secant: SecantJacobian):
     """The least squares' result ``res`` taken back to its start (``res.start``), where its end
-    scored ``rss_after`` by the replay's own resets, above the start's ``start_rss``."""
+    scored ``rss_after`` by the replay's own resets, above the start's ``start_rss``; its Jacobian
+    there the start's own, or ``secant.end``'s where that is central."""
     z, r, jac = res.start
+    jac = secant.end(z, r) if secant.central else jac
     return OptimizeResult(x=z, fun=r, cost=0.5 * float(r @ r), jac=jac, nfev=res.nfev, status=res.status,
                           success=True, message=f"ended where it started: the least squares' end scored "
                                             f"RSS {rss_after:.6g} by the replay's own resets, the start "

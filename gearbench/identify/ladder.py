@@ -473,7 +473,7 @@ def _along_the_valley(ctx: Context, state: State, number: int) -> State | None:
 
 def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) -> FitResult | None:
     """The datasheet values ``ctx.plan.frees`` fitted with ``free_plant`` and the effects numbered
-    ``added`` (central differences, restarts), from the model's values; where that pays
+    ``added`` (the end's Jacobian by central differences, restarts), from the model's values; where that pays
     (``Policy.accepts`` against ``res``) but leaves more than ``at_noise`` x the noise floors, also
     from the best points of a scan of the tolerance box (``calibration.starts``); the best fit
     kept (None when none converged), its standard errors not yet sharpened (``fit.sharpen``:
