@@ -516,14 +516,10 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     """Fit ``frees`` of ``plant`` to the replayed record.
 
     ``central``: the Jacobian at the end, for the standard errors, by central differences (2k
-    replays for k values, once); the Jacobians the fit steps on are forward differences either way.
-    The datasheet calibration asks for it.  Until 2026-12-02 its steps took central differences
-    too (twice the replays per Jacobian): with forward ones the fit of the bench rig's six values
-    had stalled at 1.055x the noise floors, where the truth's values give 0.962x and central ones
-    0.970x (the backlash's impacts make the residual curve within a 0.1 % step), but that was
-    before the fits held the replay's resets in rounds.  Since, on practice record p04, the
-    calibration's three fits of nine values took 775, 384 and 417 replays with forward steps
-    against 1,360, 691 and 488 with central ones, to the same ends (RSS within 0.05 %).
+    replays for k values, once); the fit steps on forward differences either way (the datasheet
+    calibration's steps took central ones until 2026-12-02: on practice record p04 its fits of
+    nine values took 1,360, 691 and 488 replays for 775, 384 and 417, to the same ends, the RSS
+    within 0.05 %; forward steps had stalled before fits held the resets: ``docs/speed.md``).
 
     The least squares runs in rounds, each with the replay's window resets held where they are
     at its start (``Replay.run(seams=...)``): the test that decides whether a seam resets switches
