@@ -303,12 +303,12 @@ class SecantJacobian:
 
         J+ = J + (r+ - r - J dz) dz^T / (dz^T dz),
 
-    which costs no replay.  Fresh (forward differences of step :func:`fd_step`) at the start, after a step the
-    trust region rejected at least once, and after :data:`POOR_STEPS` poorly foretold steps in a
-    row; :meth:`end` gives the finite-difference one at the end, for the standard errors (central
-    differences with ``central``), and
-    :func:`secant_least_squares` goes on with a fresh one (and a fresh trust region) from a stop on
-    the step size made after updates.  Why: a finite-difference Jacobian costs a replay per
+    which costs no replay.  Fresh (forward differences of step :func:`fd_step`) at the start,
+    after a step the trust region rejected at least once, and after :data:`POOR_STEPS` poorly
+    foretold steps in a row; :meth:`end` gives the finite-difference one at the end, for the
+    standard errors (central differences with ``central``), and :func:`secant_least_squares`
+    goes on with a fresh one (and a fresh trust region) from a stop on the step size made after
+    updates.  Why: a finite-difference Jacobian costs a replay per
     parameter, and they were more than half of a diagnosis's replays (issue 18's 4 s record, in
     one process with one worker: 4,270 replays before, 3,150 with the updates; the same ladder
     and values).
@@ -408,8 +408,8 @@ def secant_least_squares(fun, z, bounds, central: bool = False, max_nfev: int = 
     ones), its ``nfev`` counts every round's residuals, and its ``start`` is ``(z, r, J)`` at ``z``
     (the first finite-difference Jacobian's point, forward differences).
 
-    ``lazy``: where the last Jacobian was a secant update or a forward one with ``central``, ``jac`` is that and
-    ``fresh_jac()`` gives the finite-difference one (:func:`fresh_jacobian`), for a caller that
+    ``lazy``: where the last Jacobian was a secant update (or a forward one with ``central``),
+    ``jac`` is that and ``fresh_jac()`` gives the finite-difference one (:func:`fresh_jacobian`), for a caller that
     needs it only if it keeps this result: :func:`fit`'s rounds keep one of several."""
     used, start = 0, None
     while True:
