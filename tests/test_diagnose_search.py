@@ -459,6 +459,74 @@ def test_unit_coordinates_invert_the_scan_and_near_starts_are_one():
     assert len(search.distinct([best, apart, near], frees, 2)) == 2   # only the best two are looked at
 
 
+def _p01():
+    """Practice record p01 (the independent simulator's: 16 s at 1 kHz) and its datasheet plant."""
+    from conftest import DATA
+    from gearbench.api import load_measurement
+    replay = Replay(load_measurement(DATA / "cases" / "p01" / "data.csv"))
+    return replay, load_plant(DATA / "cases" / "p01" / "nominal.yaml")
+
+
+def test_a_scan_stops_the_points_that_cannot_rank_and_keeps_its_best_exactly(monkeypatch):
+    """On practice record p01, a scan of a Stribeck friction at the load (33 points) stops each
+    replay once its RSS so far exceeds the second best of the points before it: its best two points
+    and every RSS it gives are those of replays run to the end, bit for bit, for fewer solver steps
+    (measured: 1.12 million steps for 0.35 million)."""
+    replay, base = _p01()
+    scorer = Scorer(replay)
+    plant = base.with_effects(AddedEffect("stribeck_friction", {"location": "load", "static_torque": 0.05,
+                                                                "coulomb_torque": 0.03, "stribeck_speed": 0.5}))
+    frees = Free.effect(plant, len(plant.effects) - 1)
+    start = [get_value(plant, f) for f in frees]
+    points = [np.asarray(start)] + list(search.around(start, search.sobol_points(frees)))
+    whole, steps = {}, {"whole": 0, "scan": 0, "stopped": 0}
+    for x in points:
+        run = replay.run(set_values(plant, frees, x))
+        steps["whole"] += run.steps
+        r = scorer.weighted(run)
+        whole[tuple(x)] = float(r @ r)
+    ranked = sorted(whole.items(), key=lambda c: c[1])
+    plain = Replay.run
+
+    def counted(self, *args, **kwargs):
+        run = plain(self, *args, **kwargs)
+        steps["scan"] += run.steps
+        steps["stopped"] += run.stopped
+        return run
+
+    monkeypatch.setattr(Replay, "run", counted)
+    got = search.scan(replay, scorer, plant, frees, points)
+    assert [(tuple(x), rss) for rss, x in got[:search.LOCAL_STARTS]] == ranked[:search.LOCAL_STARTS]
+    assert all(whole[tuple(x)] == rss for rss, x in got)
+    assert steps["stopped"] == len(points) - len(got) > 0
+    assert steps["scan"] < 0.5 * steps["whole"], steps
+
+
+def test_a_stopped_replay_is_the_whole_ones_first_samples(monkeypatch):
+    """``Replay.run(stop=...)``: stopped after its third window, p01's columns (a sensor offset
+    applied) are the first samples of the whole run's, bit for bit; a stop never true changes
+    nothing; with a sensor effect that does not measure causally the stop is not asked."""
+    replay, base = _p01()
+    plant = base.with_effects(AddedEffect("sensor_offset", {"signal": "current_A", "offset": 0.01}))
+    whole = replay.run(plant)
+    seen = []
+
+    def third(sim):
+        seen.append(len(sim["current_A"]))
+        return len(seen) == 3
+
+    part = replay.run(plant, stop=third)
+    n = seen[-1]
+    assert part.stopped and not whole.stopped and 0 < n < len(replay.t)
+    assert list(part) == list(whole)
+    for name in whole:
+        assert np.array_equal(part[name], whole[name][:n]), name
+    never = replay.run(plant, stop=lambda sim: False)
+    assert not never.stopped and all(np.array_equal(never[k], whole[k]) for k in whole)
+    monkeypatch.setattr(type(REGISTRY["sensor_offset"]), "causal", False)
+    assert not replay.run(plant, stop=lambda sim: True).stopped
+
+
 def test_a_screen_fits_second_starts_only_for_the_candidates_its_first_starts_rank_best(monkeypatch):
     """``ladder.screen``: each candidate is fitted from its scan's best start; only the
     ``Policy.second_top`` best of those fits (and none at the noise floors) are fitted from their

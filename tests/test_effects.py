@@ -167,3 +167,28 @@ def test_plant_with_effects_round_trips_through_its_file(tmp_path):
     again = load_plant(path)
     assert again == plant
     assert np.array_equal(pack_plant(again), pack_plant(plant))
+
+
+CAUSAL_VALUES = {"sensor_delay": {"signal": "motor_angle_deg", "delay": 0.0123},
+                 "encoder_quantization": {"signal": "motor_angle_deg", "counts_per_rev": 1000},
+                 "sensor_offset": {"signal": "motor_angle_deg", "offset": 0.3}}
+
+
+def test_a_sensor_effect_declared_causal_measures_a_records_start_as_the_whole_records():
+    """Every library effect that overrides ``measure`` declares ``causal``, and is: its measure of a
+    record's first samples is the first samples of its measure of the whole (what lets a scan stop a
+    replay part-way, ``Replay.run(stop=...)``)."""
+    from gearbench.plant.effects.base import Effect
+    measuring = {name for name, e in REGISTRY.items() if type(e).measure is not Effect.measure}
+    assert measuring == set(CAUSAL_VALUES)
+    plant = load_plant(REPO / "experiments" / "plants" / "bench_rig.yaml")
+    t = np.arange(2000) * 1e-3
+    y = np.cumsum(np.random.default_rng(4).normal(size=t.size))
+    for name, values in CAUSAL_VALUES.items():
+        e = REGISTRY[name]
+        assert e.causal and e.measures_causally()
+        whole = e.measure(values, "motor_angle_deg", y, t, plant)
+        assert not np.array_equal(whole, y), name
+        for n in (1, 17, 1000, 1999):
+            assert np.array_equal(e.measure(values, "motor_angle_deg", y[:n], t[:n], plant), whole[:n]), (name, n)
+    assert all(e.measures_causally() for name, e in REGISTRY.items() if name not in measuring)

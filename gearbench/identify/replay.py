@@ -135,12 +135,14 @@ class ReplayRun(Mapping):
     and where that run moved the model's angles to the record's: ``seams``, the window seams'
     first sample numbers, and ``reinitialised_s``, their times (s from the record's start);
     ``steps`` and ``events``: the solver's accepted steps and located events, summed over the
-    windows (what the replay cost; ``timing``)."""
+    windows (what the replay cost; ``timing``); ``stopped``: the run ended before the record's
+    end (``Replay.run(stop=...)``), its columns those of the samples it solved."""
     columns: dict
     seams: tuple[int, ...] = ()
     reinitialised_s: tuple[float, ...] = ()
     steps: int = 0
     events: int = 0
+    stopped: bool = False
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -429,7 +431,7 @@ class Replay:
         edges.append(n)
         return list(zip(edges[:-1], edges[1:]))
 
-    def run(self, plant: Plant, seams=None, label: str = "") -> ReplayRun:
+    def run(self, plant: Plant, seams=None, label: str = "", stop=None) -> ReplayRun:
         """Simulated columns (``compared()``) at the record's samples, in its units, sensor
         effects applied, with the seams at which this run moved the model's angles to the
         record's (:class:`ReplayRun`).  Raises :class:`ReplayError` if the solver fails.
@@ -441,30 +443,46 @@ class Replay:
         off as the parameters move, and the residual jumps there (on the bench rig with p04's
         datasheet errors, the motor angle's error along the straight line from where the
         calibration stopped to the truth went 1.77, 1.95, ..., 1.47, 1.59, 1.18x the noise),
-        which stalled the fit in false minima."""
+        which stalled the fit in false minima.
+
+        ``stop``: called after each window but the last with the run so far (the columns of the
+        samples solved), it ends the run there when it returns True; the result is then
+        ``stopped``, shorter than the record.  Ignored where a sensor effect of ``plant`` does not
+        measure causally (``Effect.measures_causally``): the first samples' columns would not be
+        those of the whole run.  A scan stops a point that can no longer rank among its best
+        (``search.scan``)."""
         self.check(plant)
         held = None if seams is None else frozenset(seams)
+        if stop is not None and not all(e.effect.measures_causally() for e in plant.effects):
+            stop = None
         solved = _Solved()
         try:
-            self._solve(plant, held, label, solved)
+            self._solve(plant, held, label, solved, stop)
         finally:
             if self.meter is not None:
                 self.meter.replayed(solved.steps)
+        return self._columns(plant, solved)
+
+    def _columns(self, plant: Plant, solved: "_Solved") -> ReplayRun:
+        """The :class:`ReplayRun` of the windows ``solved`` so far."""
         out = np.vstack(solved.outs)
+        t = self.t[:len(out)]
         sim = {}
         for name in self.data.signals:
             y = S.from_outputs(name, out, plant)
             for e in plant.effects:
-                y = e.effect.measure(e.values, name, y, self.t, plant)
+                y = e.effect.measure(e.values, name, y, t, plant)
             sim[name] = y
         if self.closed_loop:
             sim[self.data.input_name] = np.concatenate(solved.seg_u)
         moved = solved.moved
-        return ReplayRun(sim, tuple(moved), tuple(float(self.t[a]) for a in moved), solved.steps, solved.events)
+        return ReplayRun(sim, tuple(moved), tuple(float(self.t[a]) for a in moved), solved.steps, solved.events,
+                         len(out) < len(self.t))
 
-    def _solve(self, plant: Plant, held: frozenset | None, label: str, solved: "_Solved") -> None:
+    def _solve(self, plant: Plant, held: frozenset | None, label: str, solved: "_Solved", stop=None) -> None:
         """:meth:`run`'s windows, one after the other, into ``solved`` (it keeps the steps of a
-        window that failed before :class:`ReplayRunError` is raised)."""
+        window that failed before :class:`ReplayRunError` is raised), until ``stop`` of the run so
+        far is true."""
         p = self.pack(plant)
         sc = self.scales(plant)
         x = self.initial_state(plant)
@@ -490,6 +508,8 @@ class Replay:
             solved.outs.append(run.outputs)
             solved.seg_u.append(run.meta["segment_input"])
             x = run.meta["x_end"].copy()
+            if stop is not None and b < len(self.t) and stop(self._columns(plant, solved)):
+                return
             x[L.X_IAE] = x[L.X_ISE] = 0.0
 
     def residuals(self, sim: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:

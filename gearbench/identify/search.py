@@ -15,7 +15,9 @@ over ``[SPAN[0], SPAN[1]] x`` its typical value ``s`` (``Free.scale``):
 clipped to its bounds, with both signs (the first half of ``q``'s range negative)
 when its lower bound is negative.  ``n`` is ``POINTS_PER_PARAM`` per parameter,
 rounded up to a power of two (Sobol's balance property), plus the given start
-(the typical values, or a previous fit's).  A point whose replay fails is skipped.
+(the typical values, or a previous fit's).  A point whose replay fails is skipped, and so is one
+whose RSS before the record's end already exceeds the ``LOCAL_STARTS`` best of the points before it
+(its replay stops there: :func:`scan`).
 The local fit then starts from the ``LOCAL_STARTS`` best points, less those within :data:`NEAR` of
 a better one in every scanned coordinate of the unit cube: two starts that close end in one basin;
 a start is not fitted when a better one's fit already reached the noise floors (``refit.best_of``),
@@ -112,18 +114,34 @@ def around(start, scanned: np.ndarray) -> np.ndarray:
 
 
 def scan(replay: Replay, scorer: Scorer, plant, frees: list[Free], points) -> list[tuple[float, np.ndarray]]:
-    """``(RSS, point)`` for every point whose replay runs, lowest RSS first."""
+    """``(RSS, point)`` for every point whose replay runs and that can rank among the
+    :data:`LOCAL_STARTS` best, lowest RSS first.  A point's replay stops at the first window
+    seam where its RSS so far exceeds the :data:`LOCAL_STARTS`-th best of the points before it
+    (``Replay.run(stop=...)``), and the point is left out: its RSS can only grow, so it ranks
+    below them; every user of a scan takes its best points only (:func:`starts`,
+    ``calibration.starts``, the calibration's split of the inertias)."""
     out = []
     for x in points:
+        bar = out[LOCAL_STARTS - 1][0] if len(out) >= LOCAL_STARTS else math.inf
         try:
-            r = scorer.weighted(replay.run(set_values(plant, frees, x)))
+            run = replay.run(set_values(plant, frees, x), stop=_above(scorer, bar))
+            if run.stopped:
+                continue
+            r = scorer.weighted(run)
         except (ReplayError, ValueError):
             continue
         rss = float(r @ r)
         if math.isfinite(rss):
             out.append((rss, np.asarray(x, dtype=float)))
-    out.sort(key=lambda c: c[0])
+            out.sort(key=lambda c: c[0])
     return out
+
+
+def _above(scorer: Scorer, bar: float):
+    """A replay's ``stop``: its RSS so far above ``bar`` (and a rounding margin), None for no bar."""
+    if not math.isfinite(bar):
+        return None
+    return lambda sim: scorer.rss_so_far(sim) > bar * (1.0 + 1e-9)
 
 
 def scan_chunk(job) -> tuple[list[tuple[float, np.ndarray]], Cost]:
@@ -140,7 +158,9 @@ def scan_in(pool, replay: Replay, scorer: Scorer, plant, frees: list[Free], poin
             until: Callable[[], bool] | None = None) -> list[tuple[float, np.ndarray]] | None:
     """:func:`scan`'s ranking, its points in jobs of :data:`SCAN_CHUNK` (:func:`scan_chunk`)
     submitted to ``pool`` (an :meth:`Executor.pool <gearbench.identify.executor.Executor.pool>`):
-    the same list, stably sorted; each job's cost is given to ``spent`` (a callable).  None as soon
+    each job's list, merged and stably sorted, with the same best points as one :func:`scan` of
+    them all (a point a job left out ranks below two of that job's); each job's cost is given to
+    ``spent`` (a callable).  None as soon
     as ``until()`` is true, asked before each job's result is waited for and after the last (the
     jobs still running are dropped with the pool)."""
     jobs = [pool.submit(scan_chunk, (replay, scorer, plant, frees, points[i:i + SCAN_CHUNK]))

@@ -150,6 +150,7 @@ class Effect:
     on_request: ClassVar[bool] = False  # diagnose tries it only when asked for (also, --also)
     rounds: ClassVar[bool] = False  # a sensor effect that rounds its signal to a grid (no noise below it)
     shifts: ClassVar[bool] = False  # a sensor effect that adds a constant: a window's reset sees through it
+    causal: ClassVar[bool] = False  # its measure of a record's first samples is the first of its measure
 
     def fit_params(self, values: dict) -> tuple[Param, ...]:
         """The parameters a fit adjusts (the given optional ones too)."""
@@ -217,8 +218,15 @@ class Effect:
         return None
 
     def measure(self, values: dict, name: str, y: np.ndarray, time_s: np.ndarray, plant) -> np.ndarray:
-        """A sensor effect distorts measured signal ``name``; others leave it."""
+        """A sensor effect distorts measured signal ``name``; others leave it.  Declare ``causal``
+        when each output sample depends only on ``y`` up to its time (a delay, a rounding, an
+        offset): a scan may then stop a replay part-way (``Replay.run(stop=...)``)."""
         return y
+
+    def measures_causally(self) -> bool:
+        """Whether :meth:`measure` of a record's first samples is the first samples of its
+        measure: it is not overridden, or the effect declares ``causal``."""
+        return self.causal or type(self).measure is Effect.measure
 
     def describe(self) -> str:
         """One line: what it is, where it acts, its parameters with units."""

@@ -29,6 +29,7 @@ def quantum(values, plant) -> float:
 class EncoderQuantization(Effect):
     """A measured angle rounded to whole encoder counts."""
     name = "encoder_quantization"
+    causal = True  # each sample from the signal up to its time
     signature = "steps of one count"
     acts_on = "measured signal"
     rounds = True

@@ -16,6 +16,7 @@ SIGNALS = ("motor_angle_deg", "load_angle_deg", "load_position_mm", "current_A",
 class SensorDelay(Effect):
     """A measured signal that lags the truth by a constant time."""
     name = "sensor_delay"
+    causal = True  # each sample from the signal up to its time
     signature = "a lag"
     acts_on = "measured signal"
     options = {"signal": SIGNALS}

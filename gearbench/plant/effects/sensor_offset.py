@@ -40,6 +40,7 @@ def _scale(plant, values):
 class SensorOffset(Effect):
     """A constant added to a measured signal (a current sensor's or a potentiometer's zero)."""
     name = "sensor_offset"
+    causal = True  # each sample from the signal up to its time
     signature = "a constant offset"
     # a current's constant is a steady torque to the model (a bias, or dry friction while the load
     # turns one way); an angle's constant is what a spring's rest angle moves
