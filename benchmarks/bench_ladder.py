@@ -13,10 +13,15 @@ core loaded from numba's disk cache):
   (0.02 N m);
 * ``emps_library``: the EMPS training run (real measurements, ``data/emps/DATA_EMPS.mat`` through
   ``gearbench import emps``), closed loop, from the bare plant with its mass free and no
-  calibration, as ``studies.emps``'s whole-library ladder.
+  calibration, as ``studies.emps``'s whole-library ladder;
+* ``twomass``: the real two-mass bench (``data/twomass``), its record A's second period, from the
+  bare plant with the rotor's inertia free, as ``studies.twomass`` diagnoses it (windows of 0.1 s
+  resetting angles and speeds, the effects that bench can have, four rungs at most), but with the
+  command's default workers (all cores) where the study uses one.
 
 Each record's row keeps the diagnosis' own ``timing`` block (per stage and per candidate: wall
-time, replays, solver steps, fits).  Targets: 60 s for each 16 s record, 30 s for the 4 s one, 300 s for EMPS.  ``--python`` and ``--pythonpath``
+time, replays, solver steps, fits).  Targets: 60 s for each 16 s record, 30 s for the 4 s one, 300 s for EMPS,
+60 s for the two-mass bench (issue 38).  ``--python`` and ``--pythonpath``
 run the same commands with another interpreter or another checkout's ``gearbench`` (the
 figure of the code before a change, measured in the same session); ``--label`` names that
 run in ``results/bench.json`` (``ladder_<label>``).  A diagnosis still running after
@@ -41,7 +46,7 @@ import click
 
 REPO = Path(__file__).resolve().parents[1]
 PLANTS = REPO / "experiments" / "plants"
-TARGET_S = {"16": 60.0, "4": 30.0, "emps": 300.0}
+TARGET_S = {"16": 60.0, "4": 30.0, "emps": 300.0, "twomass": 60.0}
 
 RECORDS = {  # name -> (plant the record is made from and diagnose is given, duration s, hidden effects)
     "none_16s": ("bench_rig.yaml", 16, []),
@@ -58,6 +63,14 @@ EMPS = {  # name -> (plant, the benchmark's file, what diagnose is given besides
                      ["--controller", str(REPO / "experiments" / "controllers" / "emps.yaml"),
                       "--free", "leadscrew.mass", "--no-calibrate"]),
 }
+TWOMASS = "twomass"  # studies.twomass's diagnosis (its constants: make_record, run_one)
+
+
+def twomass_study():
+    """``studies.twomass`` (at the repository's root, beside this folder)."""
+    sys.path.insert(0, str(REPO))
+    from studies import twomass
+    return twomass
 
 
 def gearbench(python: str, pythonpath: str | None) -> tuple[list[str], dict]:
@@ -91,6 +104,12 @@ def make_record(name: str, folder: Path) -> Path:
         subprocess.run(cmd + ["import", "emps", str(EMPS[name][1]), "-o", str(out)], check=True, env=env,
                        capture_output=True, cwd=NEUTRAL)
         return out
+    if name == TWOMASS:
+        import pandas as pd
+        tm = twomass_study()
+        m = tm.cut(tm.load_records()["A"], tm.FIT_SLICE_S, "record A")
+        pd.DataFrame({"time_s": m.time_s, m.input_name: m.input, **m.signals}).to_csv(out, index=False)
+        return out
     src, duration, hidden = RECORDS[name]
     args = cmd + ["synth", str(PLANTS / src), "--excitation", "mixed", "--duration", str(duration),
                   "--seed", str(SEED), "-o", str(out)]
@@ -104,6 +123,11 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
     if name in EMPS:
         plant, _, extra = EMPS[name]
         target, hidden = TARGET_S["emps"], []
+    elif name == TWOMASS:
+        tm = twomass_study()
+        plant, target, hidden = tm.BARE_PLANT, TARGET_S["twomass"], []
+        extra = ["--window", str(tm.WINDOW_S), "--reset-speeds", "--only", ",".join(tm.CANDIDATES),
+                 "--max-steps", str(tm.MAX_STEPS)] + [a for key in tm.FREE_PLANT for a in ("--free", key)]
     else:
         plant, duration, hidden = RECORDS[name]
         target, extra = TARGET_S[str(duration)], []
@@ -132,7 +156,7 @@ def run_one(name: str, data: Path, python: str, pythonpath: str | None, timeout:
 @click.option("--python", default=sys.executable, show_default=True, help="Interpreter that runs gearbench.")
 @click.option("--pythonpath", default=None, help="A checkout whose gearbench to run instead (PYTHONPATH).")
 @click.option("--label", default="", help="Stored as ladder_<label> in results/bench.json (default: ladder).")
-@click.option("--only", "names", multiple=True, type=click.Choice(sorted(RECORDS) + sorted(EMPS)),
+@click.option("--only", "names", multiple=True, type=click.Choice(sorted(RECORDS) + sorted(EMPS) + [TWOMASS]),
               help="Only these records.")
 @click.option("--timeout", type=float, default=900.0, show_default=True, help="Stop a diagnosis after, s.")
 def main(python, pythonpath, label, names, timeout):
@@ -142,7 +166,7 @@ def main(python, pythonpath, label, names, timeout):
     commit = commit_of(Path(pythonpath).resolve() if pythonpath else REPO)
     # --only measures some records again: the others' rows stay as they were (each says when and what)
     rows = stored(key, "records") if names else {}
-    names = names or tuple(RECORDS) + tuple(EMPS)
+    names = names or tuple(RECORDS) + tuple(EMPS) + (TWOMASS,)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name in names:
