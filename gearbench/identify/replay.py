@@ -513,11 +513,12 @@ class Replay:
             x[L.X_IAE] = x[L.X_ISE] = 0.0
 
     def residuals(self, sim: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Measured minus simulated, per compared column."""
+        """Measured minus simulated, per compared column, over the samples the simulated column
+        holds (all of them, or a stopped run's first ones: ``ReplayRun.stopped``)."""
         res = {}
         for name, y in sim.items():
             meas = self.data.input if name == self.data.input_name else self.data.signals[name]
-            res[name] = np.asarray(meas, dtype=float) - y
+            res[name] = np.asarray(meas, dtype=float)[:len(y)] - y
         return res
 
     def measured(self, name: str) -> np.ndarray:

@@ -160,16 +160,6 @@ class Scorer:
         res = self.replay.residuals(sim)
         return np.concatenate([res[n] / self.floors[n] for n in objective_signals(self.replay)])
 
-    def rss_so_far(self, sim: dict) -> float:
-        """The RSS of :meth:`weighted`'s residual over the samples ``sim`` holds (a run stopped
-        part-way, ``ReplayRun.stopped``): no more than the whole run's."""
-        n = len(sim[self.primary])
-        total = 0.0
-        for name in objective_signals(self.replay):
-            w = (self.replay.measured(name)[:n] - sim[name]) / self.floors[name]
-            total += float(w @ w)
-        return total
-
     def per_signal(self, sim: dict) -> dict[str, tuple[float, int]]:
         """Each weighed column's ``(RSS, n)`` of its residual divided by its noise floor."""
         res = self.replay.residuals(sim)

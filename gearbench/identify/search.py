@@ -141,7 +141,11 @@ def _above(scorer: Scorer, bar: float):
     """A replay's ``stop``: its RSS so far above ``bar`` (and a rounding margin), None for no bar."""
     if not math.isfinite(bar):
         return None
-    return lambda sim: scorer.rss_so_far(sim) > bar * (1.0 + 1e-9)
+
+    def above(sim) -> bool:
+        r = scorer.weighted(sim)  # over the samples solved so far
+        return float(r @ r) > bar * (1.0 + 1e-9)
+    return above
 
 
 def scan_chunk(job) -> tuple[list[tuple[float, np.ndarray]], Cost]:
