@@ -37,17 +37,17 @@ def geartrain(*effects, backlash_deg=4.0) -> Plant:
                  Load(1e-3, 1e-3), name="train", effects=tuple(effects))
 
 
-def simulate(plant, t, v, s=None, t_end=None, x0=None, rtol=1e-8, dt=1e-3, rel=1e-5):
+def simulate(plant, t, v, s=None, t_end=None, x0=None, rtol=1e-8, dt=1e-3, rel=1e-5, method="rodas4"):
     """Open loop from ``x0`` (rest by default) with input segments; returns (time, outputs, result)."""
     p = pack_plant(plant)
     p[L.P_CTRL] = L.CTRL_OPEN
     t = np.asarray(t, float)
     s = np.zeros(len(t)) if s is None else np.asarray(s, float)
-    opts = SolverOptions(rtol=rtol, max_step_s=1e-3, output_dt_s=dt, friction_speed_rel=rel)
+    opts = SolverOptions(rtol=rtol, max_step_s=1e-3, output_dt_s=dt, friction_speed_rel=rel, method=method)
     x0 = np.zeros(L.N_STATE) if x0 is None else x0
     r = simulate_packed(p, tolerance_scales(plant), Segments(t, np.asarray(v, float), s),
                         t_end or float(t[-1]) + 1.0, x0, opts)
-    assert r.ok, r.status
+    assert r.ok, (method, r.status)
     return r.time_s, r.outputs, r
 
 
@@ -121,13 +121,9 @@ def test_results_converge_as_the_tolerance_tightens():
     # measured (2026-11-25): 1.2e-4, 3.6e-7, 3.5e-9 rad
     assert errs[0] > 10 * errs[1] > 100 * errs[2], errs
     # independent steppers on the same events: rosenbrock23 and the explicit dopri5 (rtol 1e-8)
-    p = pack_plant(plant)
-    p[L.P_CTRL] = L.CTRL_OPEN
     for method, tol in (("rosenbrock23", 2e-6), ("dopri5", 1e-7)):
-        other = simulate_packed(p, tolerance_scales(plant), Segments(np.array(tk), np.array(vk), np.zeros(6)), 1.5,
-                                np.zeros(L.N_STATE), SolverOptions(rtol=1e-8, max_step_s=1e-3, output_dt_s=1e-3,
-                                                                   method=method))
-        assert other.ok and np.max(np.abs(other.outputs[:, L.O_LOAD] - ref)) < tol, method
+        other = simulate(plant, tk, vk, t_end=1.5, method=method)[1][:, L.O_LOAD]
+        assert np.max(np.abs(other - ref)) < tol, method
 
 
 def test_a_sampled_input_of_many_sloped_segments_agrees_with_dormand_prince():
@@ -139,14 +135,10 @@ def test_a_sampled_input_of_many_sloped_segments_agrees_with_dormand_prince():
     t = np.arange(1500) * 1e-3
     v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
     slope = np.append(np.diff(v) / 1e-3, 0.0)
-    p = pack_plant(plant)
-    p[L.P_CTRL] = L.CTRL_OPEN
     runs = {}
     for method, rtol in (("rodas4", 1e-6), ("rodas4", 1e-8), ("rodas4", 1e-11), ("dopri5", 1e-9)):
-        run = simulate_packed(p, tolerance_scales(plant), Segments(t, v, slope), 1.5, np.zeros(L.N_STATE),
-                              SolverOptions(rtol=rtol, max_step_s=1e-3, output_dt_s=1e-3, method=method))
-        assert run.ok, (method, run.status)
-        runs[method, rtol] = run.outputs[:, [L.O_MOTOR, L.O_LOAD]]
+        _, out, run = simulate(plant, t, v, slope, t_end=1.5, rtol=rtol, method=method)
+        runs[method, rtol] = out[:, [L.O_MOTOR, L.O_LOAD]]
     assert int(run.stats[L.S_EVENTS]) > 10  # the load sticks and the teeth part, many times
     ref = runs["rodas4", 1e-11]
     errs = [float(np.max(np.abs(runs[key] - ref))) for key in (("rodas4", 1e-6), ("rodas4", 1e-8), ("dopri5", 1e-9))]
