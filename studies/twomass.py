@@ -115,10 +115,15 @@ def load_records(data_dir: str | Path | None = None) -> dict[str, Measurement]:
 
 
 def cut(m: Measurement, span_s: tuple[float, float], label: str) -> Measurement:
-    """``m`` from ``span_s[0]`` to ``span_s[1]`` s, its angles measured from the slice's start."""
+    """``m`` from ``span_s[0]`` to ``span_s[1]`` s, both angles measured from the motor angle at the
+    slice's start.  One offset for both keeps the coupling's twist (motor minus load angle) the
+    encoders show: the records start at rest with both angles 0, and at 1 s into record A the
+    coupling is twisted by -0.87 deg, which zeroing each angle on its own would have put on the load
+    angle as a constant no model of the bench has."""
     ts = m.sample_time_s
     a, b = int(round(span_s[0] / ts)), int(round(span_s[1] / ts))
-    sig = {k: np.asarray(v[a:b], dtype=float) - float(v[a]) for k, v in m.signals.items()}
+    zero = float(m.signals["motor_angle_deg"][a])
+    sig = {k: np.asarray(v[a:b], dtype=float) - zero for k, v in m.signals.items()}
     return from_arrays(m.time_s[a:b], m.input_name, m.input[a:b], sig, source=label)
 
 
