@@ -421,12 +421,16 @@ def test_a_fit_that_a_false_reset_makes_worse_ends_where_it_started():
 def test_a_fit_of_an_absent_friction_stops_at_its_floor_above_the_chatter():
     """p03 (the independent simulator: a clearance hidden, no friction; the whole 16 s) fitted with
     a Coulomb friction at the load: the level walks down to the fit's floor, 1e-3 of the location's
-    typical torque (``location.stick_slip_floor``), and stops there.  Below the floor the nominal
-    plant chatters: a body at rest sticks and breaks away at every turn of its speed, so a replay
-    at a tenth of the floor locates several times the events it does at the floor, which locates
-    no more than at ten times the floor (measured 2026-11-29: 14,096 events at a tenth of the
-    floor, 856 at it, 935 at ten times it; the fit ends at the floor in 15 replays and 4 s).  On
-    its first 4 or 8 s the fit stops on its cost's tolerance at 2.1 and 1.4 times the floor."""
+    typical torque (``location.stick_slip_floor``), and stops there.  Below the floor the replay
+    chatters at its tolerance (rtol 1e-6): a body at rest sticks and breaks away at every turn of
+    its speed, so a replay at a tenth of the floor locates several times the events it does at the
+    floor (measured 2026-11-29: 14,096 events at a tenth of the floor, 856 at it, 935 at ten times
+    it; the fit ends at the floor in 15 replays and 4 s).  That chatter is the tolerance's, which
+    is what the floor is for: at rtol 1e-7, 1e-8 and 1e-9 a tenth of the floor locates 709, 803
+    and 1,302 events (2026-12-03).  How the counts at the floor and at ten times it compare is not
+    asserted: it moves with the step sequence (rtol 1e-6 to 1e-9: 856, 696, 971, 2,212 at the
+    floor against 935, 1,344, 1,645, 1,770 at ten times it).  On its first 4 or 8 s the fit stops
+    on its cost's tolerance at 2.1 and 1.4 times the floor."""
     import gearbench as gb
     from gearbench.identify.candidates import fit_effect
     from gearbench.plant.effects.location import stick_slip_floor
@@ -439,7 +443,6 @@ def test_a_fit_of_an_absent_friction_stops_at_its_floor_above_the_chatter():
                                                          {"location": "load", "torque": level}))).events
 
     assert events(0.1 * floor) > 3 * events(floor)
-    assert events(floor) <= events(10 * floor)
     (tried,) = fit_effect(plant, replay, "coulomb_friction", {"location": "load"})
     assert tried.result.converged
     assert tried.params["torque"] == pytest.approx(floor, rel=1e-6)
