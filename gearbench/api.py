@@ -1123,6 +1123,14 @@ class FitReport:
         What the page calls the model: its file's name when it came from a file.
     gaps : dict, optional
         What was done to the record's missing samples (``gaps=``): ``measure.gaps.Gaps.to_dict()``.
+    numerical : dict
+        How far each value moves when the fit is finished at a hundredth of ``rtol``, same keys
+        and units (:func:`gearbench.identify.numerics.refine`: Gauss-Newton steps on the replay at
+        that tolerance): the error the solver's tolerance left in it.  Where a move exceeds 0.3
+        of its standard error the fit has been finished so (``refined``); a small one is only
+        reported.
+    refined : bool
+        Whether ``values`` are the fit finished at the tighter tolerance (``message`` says so).
 
     Examples
     --------
@@ -1150,6 +1158,8 @@ class FitReport:
     base_plant: Plant | None = field(default=None, repr=False)
     plant_label: str = ""
     gaps: dict | None = None
+    numerical: dict = field(default_factory=dict)
+    refined: bool = False
 
     def comparison(self) -> Comparison:
         """The fitted model against the record it was fitted on (needs ``replay``): a
@@ -1185,7 +1195,7 @@ class FitReport:
         """The fit as plain values (JSON-ready); ``gaps`` when the record's missing samples were filled
         or dropped (``measure.gaps.Gaps.to_dict()``)."""
         return {"effect": self.effect, "values": self.values, "stderr": self.stderr, "units": self.units,
-                "correlation": self.correlation,
+                "correlation": self.correlation, "numerical": self.numerical, "refined": self.refined,
                 "error_before": self.error_before, "error_after": self.error_after,
                 "error_unit": self.unit, "error_signal": self.signal, "message": self.message, "tried": self.tried,
                 **({"gaps": self.gaps} if self.gaps else {})}
@@ -1316,17 +1326,19 @@ def fit_report(plant: Plant, replay, effect: str, options: Mapping | None = None
     ``gearbench fit`` builds it): every place of ``effect`` fitted
     (``identify.candidates.fit_effect``), the lowest BIC kept.  Raises ``FitError`` for a bad
     effect, option, starting value or free key, and its ``NotConverged`` (with each place's try)
-    when no place converged."""
+    when no place converged.  The kept fit is finished at a hundredth of the replay's tolerance
+    where that moves a value by more than 0.3 standard errors (``identify.numerics.refine``)."""
     from .identify.candidates import best_tried, fit_effect
+    from .identify.numerics import refine
     from .identify.scoring import Scorer
     tried = fit_effect(plant, replay, effect, options, start, free, refit, max_evals, calibrate, scheduler)
     best = best_tried(tried)
     scorer = Scorer(replay)
-    res = best.result
+    res = refine(replay, scorer, best.result)
     return FitReport(best.candidate.label(), res.plant, res.values, res.stderr,
                      scorer.error(replay.run(plant)), res.error, replay.unit(scorer.primary), scorer.primary,
                      res.message, res.units, res.correlation, attempts(tried), replay, plant, plant.name,
-                     gaps_entry(replay.data).get("gaps"))
+                     gaps_entry(replay.data).get("gaps"), res.numerical, res.refined)
 
 
 def attempts(tried) -> list[dict]:

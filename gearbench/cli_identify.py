@@ -389,8 +389,11 @@ def _ladder_progress(disable: bool):
               help="The new plant file (written only if the fit converges).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print {converged, effect, values, stderr, units, correlation (parameter -> parameter -> "
-                   "correlation of the two estimates), error_before, error_after, error_unit, error_signal, "
-                   "message (the optimiser's), output, tried} as one JSON object on stdout instead of the table.")
+                   "correlation of the two estimates), numerical (how far each value moves when the fit is finished "
+                   "at a hundredth of --rtol), refined (whether it was: where some move exceeds 0.3 standard "
+                   "errors), error_before, error_after, error_unit, "
+                   "error_signal, message (the optimiser's), output, tried} as one JSON object on stdout instead "
+                   "of the table.")
 @_html_option("the new plant file's name with .html (NEW.html beside NEW.yaml)")
 def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_from, effect_spec, free, refit,
         calibrate, max_evals, scheduler, output, as_json, html_file):
@@ -409,6 +412,7 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     from .experiment.writer import update_plant_yaml
     from .errors import NotConverged
     from .identify.candidates import check_names
+    from .identify.numerics import TIGHTER
     from .identify.uncertainty import strong_correlations
     from .plant.effects import REGISTRY
     from .report.html import fit_page
@@ -453,5 +457,9 @@ def fit(plant_file, data_file, controller_file, window_s, rtol, noise, noise_fro
     stdout().print(tab)
     for a, b, rho in strong_correlations(f.correlation):
         stdout().print(f"correlated estimates: {a} and {b}, {rho:+.3f}", highlight=False)
+    if f.refined:
+        moved = max((abs(v) / f.stderr[k] for k, v in f.numerical.items() if f.stderr.get(k)), default=0.0)
+        stdout().print(f"finished at rtol {rtol / TIGHTER:g}: the replay at rtol {rtol:g} had left the values up to "
+                       f"{moved:.2g} standard errors off", highlight=False)
     stdout().print(f"error (RMS of {f.signal}): {f.error_before:.4g} -> {f.error_after:.4g}; wrote {output} and {report}",
                    highlight=False)

@@ -202,7 +202,7 @@ def test_compare_diagnose_fit_json(record, tmp_path):
     res = invoke("diagnose", RIG, record, "--only", "bias_torque", "--max-steps", "1", "--workers", "1",
                  "--results", tmp_path, "--json")
     assert res.exit_code == 0, res.output
-    assert {"baseline_error", "noise_floor", "candidates", "verdict", "ladder"} <= set(only_json(res))
+    assert {"baseline_error", "noise_floor", "candidates", "verdict", "ladder", "numerical", "refined"} <= set(only_json(res))
 
     new = tmp_path / "fitted.yaml"
     res = invoke("fit", RIG, record, "--effect", "coulomb_friction location=load", "-o", new, "--json")
@@ -211,6 +211,7 @@ def test_compare_diagnose_fit_json(record, tmp_path):
     assert data["converged"] and data["output"] == str(new) and new.is_file()
     assert data["values"]["effects[0].torque"] == pytest.approx(0.8, rel=0.05)
     assert data["error_after"] < data["error_before"] and data["error_signal"] == "load_angle_deg"
+    assert set(data["numerical"]) == set(data["values"])  # the solver tolerance's shift of each value
 
     never = tmp_path / "never.yaml"
     res = invoke("fit", RIG, record, "--effect", "coulomb_friction location=load torque=0.01",

@@ -219,6 +219,12 @@ class FitResult:
     # (the plant fitted from, its end in fit coordinates) of a fit whose standard errors are still the
     # first estimate's where estimates trade off (fit(sharp=False)); None once sharpened or not needed
     unsharp: tuple | None = field(default=None, repr=False, compare=False)
+    # dw/dp of the weighted residual w in the parameters' own values, the standard errors' Jacobian
+    jac: np.ndarray | None = field(default=None, repr=False, compare=False)
+    # name -> how far the replay's tolerance had moved the value, own unit (numerics.refine; {} unchecked),
+    # and whether that has been taken out of the values
+    numerical: dict = field(default_factory=dict)
+    refined: bool = False
 
     @property
     def values(self) -> dict:
@@ -657,7 +663,8 @@ def _result(trials: _Trials, res, nfev: int, rounds: int, sharp: bool = True) ->
                          f"the fitted plant does not simulate: {exc}", nfev)
     w = scorer.weighted(sim)
     # res.jac is in the scaled coordinates z = u / scale; the errors are of the parameters' own values
-    params, rho = _params(replay, fitted, frees, own_jacobian(res.jac / sc, frees), w)
+    jac = own_jacobian(res.jac / sc, frees)
+    params, rho = _params(replay, fitted, frees, jac, w)
     converged = res.status > 0
     msg = res.message if converged else f"did not converge: {res.message}"
     if rounds:
@@ -667,7 +674,7 @@ def _result(trials: _Trials, res, nfev: int, rounds: int, sharp: bool = True) ->
     out = FitResult(fitted if converged else plant, params, scorer.error(sim), float(w @ w), w.size, len(frees),
                     converged, msg, nfev, sim, scorer.per_signal(sim), seams=sim.seams,
                     noise=scorer.noise_models(sim),
-                    unsharp=(plant, res.x.copy()) if converged and U.strongly_correlated(rho) else None)
+                    unsharp=(plant, res.x.copy()) if converged and U.strongly_correlated(rho) else None, jac=jac)
     return sharpen(replay, scorer, out) if sharp else out
 
 
@@ -698,5 +705,6 @@ def sharpen(replay: Replay, scorer: Scorer, res: FitResult) -> FitResult:
     sharp = _sharp_jacobian(_Trials(replay, scorer, plant, frees, sc, size=w.size), z, w, res.seams, first)
     if sharp is None:
         return replace(res, unsharp=None)
-    params, _ = _params(replay, res.plant, frees, own_jacobian(sharp / sc, frees), w)
-    return replace(res, params=params, nfev=res.nfev + 2 * len(frees), unsharp=None)
+    jac = own_jacobian(sharp / sc, frees)
+    params, _ = _params(replay, res.plant, frees, jac, w)
+    return replace(res, params=params, nfev=res.nfev + 2 * len(frees), unsharp=None, jac=jac)

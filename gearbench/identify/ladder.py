@@ -30,6 +30,7 @@ from .candidates import (Pair, Trial, Tried, candidates, fit_each, fit_each_late
                          run_jobs, run_pair)
 from .executor import Executor
 from .fit import FitResult, Free, get_value, plant_frees, sharpen
+from .numerics import refine
 from .scoring import Scorer, bic_drop
 from .timing import Cost
 from .policy import Policy
@@ -469,6 +470,23 @@ def _along_the_valley(ctx: Context, state: State, number: int) -> State | None:
     effects, values = _model(got.plant, state.refitted)
     rung = replace(state.rungs[-1], result=got, model=effects, plant_params=values)
     return replace(state, rungs=state.rungs[:-1] + (rung,), model=got)
+
+
+def refined(ctx: Context, state: State) -> State:
+    """``state`` with its final model's numerical error measured and, where it exceeds 0.3 of a
+    standard error, taken out at a hundredth of the replay's tolerance (``numerics.refine``); the
+    rung or calibration that made the model follows it (its ``model`` and ``plant_params``)."""
+    ctx.tracker.stage("numerical check", state.steps)
+    got = refine(ctx.replay, ctx.scorer, state.model)
+    if not got.refined:
+        return replace(state, model=got)
+    rungs, cal = state.rungs, state.calibration
+    if rungs and rungs[-1].result is state.model:
+        effects, values = _model(got.plant, state.refitted)
+        rungs = rungs[:-1] + (replace(rungs[-1], result=got, model=effects, plant_params=values),)
+    if cal is not None and cal.result is state.model:
+        cal = replace(cal, result=got)
+    return replace(state, rungs=rungs, calibration=cal, model=got)
 
 
 def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) -> FitResult | None:

@@ -13,7 +13,7 @@ from .candidates import RANKING, Tried
 from .explain import not_driven, reason, rivals, rung_text, simplified_text
 from .fit import FitResult
 from .scoring import Scorer
-from .ladder import CalibrationStep, Context, State, correlated
+from .ladder import CalibrationStep, Context, State, correlated, refined
 from .policy import Policy
 from .missing import MissingTorque, missing_torque
 from .replay import Replay
@@ -67,6 +67,10 @@ class Diagnosis:
     timing: dict = field(default_factory=dict)  # timing.Timing.report(): where the time went
     gaps: dict | None = None  # measure.gaps.Gaps.to_dict() of the record's missing samples, when asked to fill them
     missing: MissingTorque | None = None  # the final model's residual as a torque, when it ends above its noise
+    # the final model's values: how far the replay's tolerance had moved each (by name, own unit), and
+    # whether that has been taken out (numerics.refine, ladder.refined)
+    numerical: dict = field(default_factory=dict)
+    refined: bool = False
 
     def ladder_steps(self) -> list[dict]:
         """The bars of ``report.compare.ladder_figure``: the baseline, each rung, and the
@@ -102,6 +106,10 @@ class Diagnosis:
                       f"| {i} | {'- ' if s.action == 'remove' else ''}{s.effect} {s.options or ''} | "
                       + ", ".join(f"{p} = {v:.4g}" for p, v in s.params.items()) + f" | {s.error:.4g} {unit} |")
         md += [""] + [f"{i}. {s.explanation}" for i, s in enumerate(self.ladder, 1)] + ["", "![ladder](ladder.png)"]
+        if self.refined:
+            moved = ", ".join(f"{n} {v:+.3g}" for n, v in self.numerical.items() if v)
+            md += ["", "The final model's fit was finished at a hundredth of the replay's solver tolerance, "
+                   f"which moved its values ({moved}; `numerical` in `diagnose.json`)."]
         if self.missing is not None:
             md += ["", "## The torque the model misses", "", self.missing.sentence() + ".", "",
                    "![missing torque](missing_torque.png)"]
@@ -142,6 +150,8 @@ class Diagnosis:
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads.
+        ``numerical``, ``refined``: how far each of the final model's values moves when its fit is
+        finished at a hundredth of the replay's tolerance, and whether it was (``ladder.refined``).
         ``missing_torque``: when the ladder ends above the record's noise (not stopped at the noise
         floor, not interrupted), the final model's residual as the torque that would explain it,
         :meth:`missing.MissingTorque.to_dict` (``signal``, ``unit``, ``rms``, ``signatures``, ``resembles``,
@@ -170,12 +180,18 @@ class Diagnosis:
             "not_tried": self.not_tried,
             **({"gaps": self.gaps} if self.gaps else {}),
             "calibration": self.calibration,
-            "calibration_step": None if self.calibration_step is None else {
-                "after_step": self.calibration_step.after, "error": self.calibration_step.result.error,
-                "bic_change": self.calibration_step.result.bic - self.calibration_step.before.bic},
+            "calibration_step": calibration_step_json(self.calibration_step),
             "missing_torque": None if self.missing is None else self.missing.to_dict(),
+            "numerical": self.numerical,
+            "refined": self.refined,
             "timing": self.timing,
         }
+
+
+def calibration_step_json(c: CalibrationStep | None) -> dict | None:
+    """``diagnose --json``'s ``calibration_step``: after which step, the error after it, its BIC change."""
+    return None if c is None else {"after_step": c.after, "error": c.result.error,
+                                   "bic_change": c.result.bic - c.before.bic}
 
 
 def step_json(s) -> dict:
@@ -268,6 +284,8 @@ def steps(ctx: Context, state: State) -> list[Step]:
 def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> Diagnosis:
     """The :class:`Diagnosis` of the climb's last ``state`` (its ``stop`` set) from the baseline ``base``;
     its ``timing`` up to now, the last stage ended where the climb did."""
+    if state.stop.why != "interrupted":
+        state = refined(ctx, state)
     ctx.tracker.timing.switch(None)
     ladder = steps(ctx, state)
     res, scorer, replay = state.model, ctx.scorer, ctx.replay
@@ -286,4 +304,4 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
                      scorer.relative_pct(base.sim),
                      ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
                      why, floors, tests, not_tried, ctx.tracker.timing.report(),
-                     replay.data.gaps.to_dict() if replay.data.gaps else None, missing)
+                     replay.data.gaps.to_dict() if replay.data.gaps else None, missing, res.numerical, res.refined)

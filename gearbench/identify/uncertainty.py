@@ -49,13 +49,18 @@ needs a refit per replicate (0.5-1 s each on those 4 s records): too dear inside
 (``python -m studies.coverage``, results/coverage.md, 60 seeds; 2026-11-27): steps excitation,
 white noise 93/98/92/93/90 %, AR(1) 97/97/95/100/93 % (the white formula 25/37/20/32/38 %);
 mixed excitation, white 93/93/90/95/92 %, AR(1) 92/97/90/100/97 % (white formula
-28/35/38/37/28 %).  The RMS of (fitted - truth) / SE is 1.1-1.2 for most parameters on mixed
-records even with white noise, where all estimators agree (why is not established; the
-error the sandwich's linearisation predicts from the actual noise matched the fitted error
-on the records checked).  The estimator is conservative where a score is nearly a random
-walk: the rest angle's standard error under AR(1) noise came out about 2.5-4x too large
-(rms z 0.22-0.41).  On the README tutorial's two fits (the study's second part, 30 seeds, a
-rest angle at 0) the stiffness, rest angle and friction are covered in 100/90/93 %.
+28/35/38/37/28 %).  The RMS of (fitted - truth) / SE was 1.1-1.2 for most parameters on
+mixed records even with white noise, where all estimators agree.  Part of that was the
+replay's numerical error, not the statistics: at rtol 1e-6 it biased the resistance by -0.49
+and the spring's stiffness by +0.60 standard errors on average (mean z over the 60 seeds); taken
+out (``numerics.refine``, as ``gearbench.fit`` does since 2026-12-03) the means are within 0.17
+of 0 and the RMS 1.00-1.16 (resistance 1.16 -> 1.07, stiffness 1.19 -> 1.04, viscous 1.19 ->
+1.07; the friction 1.14 -> 1.16), coverage 92/92/90/97/95 %.  The estimator is conservative
+where a score is nearly a random walk: the rest angle's standard error under AR(1) noise came
+out about 2.5-4x too large (rms z 0.22-0.41).  On the README tutorial's two fits (the study's
+second part, 30 seeds, a rest angle at 0) the stiffness, rest angle and friction are covered
+in 100/97/97 % (RMS z 0.82/0.98/0.97; left at rtol 1e-6 the friction's estimates sat 0.64
+standard errors above the truth on average, RMS z 1.27; 2026-12-03).
 
 The white-residual formula ``s^2 (J^T J)^-1`` (:func:`white_covariance`) is kept for
 that comparison only (``FitResult.stderr_white``): it is what the sandwich reduces to
