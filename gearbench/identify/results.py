@@ -145,13 +145,11 @@ class Diagnosis:
         autocorrelation, ``ljung_box_p``, ``sentence``).
         ``not_tried``: the effects of the library (of ``only``) that cannot act on this plant and
         record, each with why (:func:`not_tried`).
-        ``gaps`` (only when the record was read with ``gaps=``/``--gaps``): the missing samples filled
-        or dropped, ``measure.gaps.Gaps.to_dict()``.
+        ``gaps`` (with ``gaps=``/``--gaps``): the missing samples filled or dropped, ``Gaps.to_dict()``.
         ``correlations`` (candidates and rungs): ``[{a, b, rho}]``, the pairs of fitted parameters
         (full names, e.g. ``effects[1].stiffness``) whose estimates correlate beyond
         ``|rho| > 0.9`` (``uncertainty.STRONG_CORRELATION``), where a standard error alone misleads.
-        ``numerical``, ``refined``: how far each of the final model's values moves when its fit is
-        finished at a hundredth of the replay's tolerance, and whether it was (``ladder.refined``).
+        ``numerical``, ``refined``: ``ladder.refined`` of the final model (``docs/diagnose-json.md``).
         ``missing_torque``: when the ladder ends above the record's noise (not stopped at the noise
         floor, not interrupted), the final model's residual as the torque that would explain it,
         :meth:`missing.MissingTorque.to_dict` (``signal``, ``unit``, ``rms``, ``signatures``, ``resembles``,
