@@ -134,6 +134,12 @@ def mean_z(rows: list[dict], key: str, values: str = "fitted") -> dict[str, floa
     return {n: float(np.mean(z)) for n, z in z_scores(rows, key, values).items()}
 
 
+def figures(rows: list[dict]) -> dict:
+    """Coverage, RMS z and mean z of the reported standard errors, for the fitted values and the unrefined."""
+    return {f"{name}{tail}": fn(rows, "stderr", values) for values, tail in (("fitted", ""), ("unrefined", "_unrefined"))
+            for name, fn in (("coverage", coverage), ("rms_z", rms_z), ("mean_z", mean_z))}
+
+
 def run(excitation: str, rho: float, seeds: int = SEEDS, workers: int | None = 1) -> dict:
     """:func:`one` over ``seeds`` seeds (0, 1, ...) on ``workers`` processes (None: every core); each
     fit is the same wherever it runs."""
@@ -144,10 +150,8 @@ def run(excitation: str, rho: float, seeds: int = SEEDS, workers: int | None = 1
         rows = here.map(partial(one, rho=rho, excitation=excitation), list(range(seeds)))
     return {"excitation": excitation, "noise": "white" if rho == 0 else f"AR(1) rho {rho:g}",
             "rho": rho, "seeds": seeds, "converged": sum(r["converged"] for r in rows),
-            "coverage": coverage(rows, "stderr"), "coverage_white_formula": coverage(rows, "stderr_white"),
-            "rms_z": rms_z(rows, "stderr"), "rms_z_white_formula": rms_z(rows, "stderr_white"),
-            "mean_z": mean_z(rows, "stderr"), "coverage_unrefined": coverage(rows, "stderr", "unrefined"),
-            "rms_z_unrefined": rms_z(rows, "stderr", "unrefined"), "mean_z_unrefined": mean_z(rows, "stderr", "unrefined"),
+            **figures(rows), "coverage_white_formula": coverage(rows, "stderr_white"),
+            "rms_z_white_formula": rms_z(rows, "stderr_white"),
             "fit_wall_s": float(sum(r["wall_s"] for r in rows)), "fits": rows}
 
 
@@ -177,10 +181,7 @@ def tutorial_run(seeds: int = TUTORIAL_SEEDS, workers: int | None = None) -> dic
     from gearbench.identify.executor import Executor
     with Executor(workers) as here:
         rows = here.map(tutorial_one, list(range(1, seeds + 1)))
-    return {"seeds": seeds, "coverage": coverage(rows, "stderr"), "rms_z": rms_z(rows, "stderr"),
-            "mean_z": mean_z(rows, "stderr"), "coverage_unrefined": coverage(rows, "stderr", "unrefined"),
-            "rms_z_unrefined": rms_z(rows, "stderr", "unrefined"), "mean_z_unrefined": mean_z(rows, "stderr", "unrefined"),
-            "fit_wall_s": float(sum(r["wall_s"] for r in rows)), "fits": rows}
+    return {"seeds": seeds, **figures(rows), "fit_wall_s": float(sum(r["wall_s"] for r in rows)), "fits": rows}
 
 
 def markdown(cases: list[dict], tutorial: dict) -> str:
