@@ -190,8 +190,8 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             continue
         h_next = hh * min(5.0, max(0.2, _step_factor(max(err, 1e-10), tol.method)))
         # A step cut short to land on the segment's end has a small error that says little of the
-        # next segment: grown from it, the next step overshot the proposed one and was rejected
-        # (90 % of a replay's rejections, docs/speed.md "The step after a corner").
+        # next segment: grown from it, the next step often exceeded the proposed one and was
+        # rejected (90 % of a replay's rejections before, docs/speed.md "The step after a corner").
         if last and h_next > proposed:
             h_next = proposed
         which, hh, last, h_next, retry = _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip,
