@@ -33,6 +33,16 @@ def small_plant(contact_law: str = "dubowsky", **gear_overrides) -> Plant:
                  name="test-plant")
 
 
+def without_opening_rest(m):
+    """Record ``m`` with its first input sample at 1 nV: the same record but one whose input does not
+    start at zero, so a replay reads no opening rest (``Replay.opening_rest``) and its reset test
+    has only the 21 samples' own scatter, as for a record cut from a running machine."""
+    from gearbench.measure.data import from_arrays
+    u = np.array(m.input, dtype=float)
+    u[0] = 1e-9
+    return from_arrays(m.time_s, m.input_name, u, dict(m.signals), source=f"{m.source} (no opening rest)")
+
+
 def pytest_addoption(parser):
     parser.addoption("--runslow", action="store_true", default=False,
                      help="run the tests marked slow too (make test-all)")

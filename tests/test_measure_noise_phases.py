@@ -4,7 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gearbench.measure.noise import detect_quantum, difference_noise, noise_floor
+from scipy.signal import lfilter
+
+from gearbench.measure.noise import detect_quantum, difference_noise, line_end_noise, noise_floor
 from gearbench.measure.phases import PHASES, classify_phases, error_shares, phase_codes
 
 T = np.arange(0.0, 10.0, 1e-3)
@@ -62,6 +64,47 @@ def test_noisy_signal_has_no_quantum():
 def test_noise_floor_needs_samples():
     with pytest.raises(ValueError, match="at least"):
         noise_floor([1.0, 2.0, 3.0])
+
+
+def _lines_at_the_next_sample(e, m: int, every: int) -> np.ndarray:
+    """Least-squares lines through ``m`` samples of ``e`` starting every ``every`` samples, each
+    evaluated at the sample after its last: what a window's reset test extrapolates."""
+    j = np.arange(m, dtype=float)
+    starts = np.arange(0, e.size - m, every)
+    coef = np.polynomial.polynomial.polyfit(j, e[starts[:, None] + np.arange(m)].T, 1)
+    return coef[0] + coef[1] * m
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.5, 0.9])
+def test_line_end_noise_is_the_spread_of_lines_fitted_to_such_noise(phi):
+    """Read from one stretch of AR(1) noise (lag-1 correlation ``phi``), the standard deviation of a
+    21-sample line's value at the next sample is the spread of such lines fitted to another,
+    independent stretch (5,000 lines, far enough apart to be independent: 1 % standard error), and
+    for white noise the textbook ``sigma sqrt(1/m + (m - mean)^2 / Sxx)``, 0.45 sigma."""
+    rng = np.random.default_rng(7)
+    m, sigma = 21, 0.04
+    scale = sigma * np.sqrt(1.0 - phi ** 2)  # marginal standard deviation sigma
+    rest = lfilter([scale], [1.0, -phi], rng.normal(size=2000))
+    other = lfilter([scale], [1.0, -phi], rng.normal(size=5000 * 120))
+    got = line_end_noise(rest, m)
+    assert got == pytest.approx(np.std(_lines_at_the_next_sample(other, m, 120)), rel=0.1)
+    if phi == 0.0:
+        j = np.arange(m)
+        textbook = sigma * np.sqrt(1.0 / m + (m - j.mean()) ** 2 / np.sum((j - j.mean()) ** 2))
+        assert got == pytest.approx(textbook, rel=0.1)
+        assert textbook == pytest.approx(0.45 * sigma, rel=0.01)
+
+
+def test_line_end_noise_needs_a_still_rest_of_five_lines_and_a_toggling_signal():
+    """Too short, a constant, or motion (a drive the record does not show, a swing): no noise read."""
+    rng = np.random.default_rng(8)
+    assert line_end_noise(rng.normal(size=104), 21) == 0.0
+    assert line_end_noise(rng.normal(size=105), 21) > 0.0
+    assert line_end_noise(np.full(500, 0.25), 21) == 0.0   # an encoder at rest that does not toggle
+    t = np.arange(500) * 1e-3
+    noise = 0.01 * rng.normal(size=t.size)
+    assert line_end_noise(1.5 * t ** 2 + noise, 21) == 0.0                       # accelerating
+    assert line_end_noise(0.1 * np.sin(2 * np.pi * 2.0 * t) + noise, 21) == 0.0  # swinging at 2 Hz
 
 
 # ---------------------------------------------------------------------------

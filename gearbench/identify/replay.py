@@ -11,7 +11,9 @@ physics.  So open-loop replays are cut into windows (``window_s``); at each
 window's start the angle states are moved by the model's drift, measured minus
 simulated position over the previous window's last samples fitted by a straight
 line (so the reset does not carry one sample's noise), when that drift is
-significant; the speeds, current and mesh state run on from the previous window.
+significant against the noise, white or coloured, as the record's opening rest
+shows it (:meth:`Replay._reset_angles`); the speeds, current and mesh state run on
+from the previous window.
 Opt-in, ``Replay(reset_speeds=True)`` also sets the speeds at every seam to the
 measured ones (a local quadratic fit of the measured angles around the seam,
 :data:`RESET_SPEED_HALF` samples either side): for a record whose low frequencies
@@ -41,7 +43,7 @@ import numpy as np
 from .. import layout as L
 from ..errors import ReplayError, ReplayRunError
 from ..measure.data import Measurement
-from ..measure.noise import noise_estimate, rest_noise
+from ..measure.noise import line_end_noise, noise_estimate, rest_noise
 from ..measure.phases import smoothed_speed
 from ..plant.components import Plant
 from ..plant.pack import pack_plant, rest_state, tolerance_scales
@@ -184,7 +186,8 @@ class Replay:
     reset_speeds: bool = False
     t0: float = field(init=False, repr=False)
     t: np.ndarray = field(init=False, repr=False)
-    _windows: dict = field(init=False, repr=False, default_factory=dict)  # "found": windows(), once
+    # read off the record once: "found" (windows()), ("rest line", column, m) (_line_noise_at_rest)
+    _read: dict = field(init=False, repr=False, default_factory=dict)
     meter: object | None = field(init=False, repr=False, default=None)
 
     def metered(self, meter) -> "Replay":
@@ -318,7 +321,14 @@ class Replay:
         coloured noise moves the last samples together, so their line's end is as far off as one
         sample (on the bench rig with AR(1) noise of lag-1 correlation 0.9, the straight line's own
         error moved a right model at 4-8 of 15 windows, and its motor angle's error rose from 1.0x
-        to 1.3-1.7x the noise).  The difference of two trajectories is
+        to 1.3-1.7x the noise).  Whether stated or not, the standard error is also at least the
+        error of such a line's end through the noise of the record's opening rest
+        (:meth:`_line_noise_at_rest`): it is read where the machine is still, so it does not move
+        with the model, and it knows the noise's colour (practice case p10, AR(1) angle noise of
+        lag-1 correlation 0.9 and 0.04 deg: the line through 21 samples of white noise is 0.45 of
+        a sample's error off, through these 1.09, and the true plant had a false reset at
+        10.525 s that left its motor angle's error at 1.59x the noise; none, and 1.00x, with the
+        opening rest's).  The difference of two trajectories is
         smooth where the model is right, whatever the motion: a polynomial fit of the
         measurement alone is biased where the motion is not polynomial (a motor crossing
         the clearance at 33 rad/s in practice case p03: it moved a right model 0.35 deg and
@@ -341,12 +351,32 @@ class Replay:
         r = d - np.polyval(coef, tt)
         drift = float(coef[-1])
         se = float(np.sqrt(cov[-1, -1] * (r @ r) / (m - 2)))
-        if name in self.noise_std:
-            se = max(se, float(abs(S.to_output_rad(name, self.noise_std[name], plant))))
+        floor = max(self._line_noise_at_rest(name, m), self.noise_std.get(name, 0.0))  # the column's unit
+        se = max(se, float(abs(S.to_output_rad(name, floor, plant))))
         move = abs(drift) > 5.0 * se if seams is None else a in seams
         if move:
             x[L.X_THM] += plant.gear.ratio * drift
         return move
+
+    def opening_rest(self) -> int:
+        """The samples of an open-loop record before its input first leaves zero (0 where it starts
+        elsewhere, and in closed loop).  The record starts at rest (SPEC) and nothing drives the
+        machine there, so all a measured signal does in them is its noise, white or coloured,
+        whatever the model."""
+        u = self.measured(self.data.input_name)
+        if self.closed_loop or u.size == 0 or u[0] != 0.0:
+            return 0
+        moved = np.flatnonzero(u != 0.0)
+        return int(moved[0]) if moved.size else u.size
+
+    def _line_noise_at_rest(self, name: str, m: int) -> float:
+        """The standard deviation of a straight line's end through ``m`` samples of column
+        ``name``'s noise as :meth:`opening_rest` shows it (``measure.noise.line_end_noise``; 0
+        where that is shorter than ``5 m`` samples), in the column's unit, read once."""
+        key = ("rest line", name, m)
+        if key not in self._read:
+            self._read[key] = line_end_noise(self.measured(name)[:self.opening_rest()], m)
+        return self._read[key]
 
     def _reset_speeds(self, x: np.ndarray, a: int, plant: Plant) -> None:
         """Set the speed states at sample ``a`` to the measured ones (``reset_speeds``): each measured
@@ -409,9 +439,9 @@ class Replay:
         ``thesis_gear`` with 1024 counts per revolution, windows of 0.5 s: a seam at sample 2190
         in rad, 2191 in degrees).
         """
-        found = self._windows.get("found")
+        found = self._read.get("found")
         if found is None:
-            found = self._windows.setdefault("found", self._find_windows(plant))
+            found = self._read.setdefault("found", self._find_windows(plant))
         return found
 
     def _find_windows(self, plant: Plant) -> list[tuple[int, int]]:
