@@ -21,9 +21,9 @@ from gearbench.experiment.files import load_plant, plant_from_dict
 from gearbench.identify.compare import comparison
 from gearbench.identify.fit import evaluate
 from gearbench.identify.refit import refit
-from gearbench.identify.replay import Replay
+from gearbench.identify.replay import Replay, stated_noise
 from gearbench.identify.scoring import Scorer
-from gearbench.measure.data import read_measurement
+from gearbench.measure.data import from_arrays, read_measurement
 from gearbench.plant.effects import AddedEffect
 
 CASES = ("p01", "p02", "p03", "p04")
@@ -391,6 +391,30 @@ def test_window_resets_keep_the_true_plant_at_its_noise(case):
     rest, which does not move with the model."""
     _, ratios = replay_of_the_truth(case, window_s=1.0)
     assert all(r < 1.05 for r in ratios.values()), ratios
+
+
+def test_a_record_without_its_opening_rest_needs_the_noise_stated():
+    """p10 cut where its input first leaves zero: no opening rest to read the noise's colour from,
+    so the reset test has the 21 samples' scatter alone and the noise moves the true plant (6
+    false resets, the motor angle at 1.45x its true noise, 2026-12-07); with the cut-off rest given
+    as the record at rest (``--noise-from``), its noise's standard deviation is the test's least
+    error, and the true plant is left at its noise."""
+    folder = DATA / "cases" / "p10"
+    truth = yaml.safe_load((folder / "truth.yaml").read_text())
+    record = read_measurement(folder / "data.csv")
+    plant = true_plant(truth, "p10")
+    k = Replay(record).opening_rest()
+
+    def part(s: slice, name: str):
+        return from_arrays(record.time_s[s], record.input_name, record.input[s],
+                           {n: v[s] for n, v in record.signals.items()}, source=name)
+
+    moving, rest = part(slice(k - 1, None), "p10 from its last sample at rest"), part(slice(0, k), "p10's opening rest")
+    for replay, moved in ((Replay(moving), True), (Replay(moving, noise_std=stated_noise(moving, False, None, rest)), False)):
+        assert replay.opening_rest() == 1
+        run = replay.run(plant)
+        ratio = max(r["rms_error"] / truth["true_noise"][r["signal"]] for r in comparison(replay, plant, run)["signals"])
+        assert (len(run.seams) >= 3 and ratio > 1.2) if moved else (run.seams == () and ratio < 1.05), (run.seams, ratio)
 
 
 def test_the_simplifications_refit_on_coloured_noise_lands_on_the_truth():
