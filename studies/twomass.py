@@ -28,7 +28,11 @@ It writes ``results/twomass.md``, ``results/twomass.json`` and PNG figures under
    ``shaft_compliance`` whose start comes from the record's FRF (for two masses
    ``w_ar = sqrt(k/J_L)``, ``w_r = sqrt(k (J_M + J_L)/(J_M J_L))``, ``J_M`` from the FRF above
    the resonance), everything refitted (``fit``).
-4. For each model: its error on the fit slice and on one period of record B (validation), its
+4. **The bench's own floor** (``repeatability``, ``period_errors``): how closely the bench repeats
+   itself from period to period under the replay's windows and restarts, which no model driven by
+   the record's input gets under, and diagnose's final model's error on every period of record A,
+   split into the part that repeats each period and the part that does not.
+5. For each model: its error on the fit slice and on one period of record B (validation), its
    linear FRF (coupling, inertias and viscous terms; Coulomb friction and constant torques left
    out) and that FRF's anti-resonance and resonance beside the record's and the source's.
 
@@ -49,7 +53,7 @@ import numpy as np
 from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.fit import Free, fit
-from gearbench.identify.replay import Replay
+from gearbench.identify.replay import RESET_SPEED_HALF, Replay, local_fit
 from gearbench.identify.scoring import Scorer
 from gearbench.measure.data import Measurement, from_arrays, read_measurement
 from gearbench.plant.components import Plant
@@ -266,6 +270,65 @@ def score(plant: Plant, m: Measurement) -> dict:
             "noise_floor_deg": {k: float(rp.noise_floor(k)) for k in m.signals}}
 
 
+# ----------------------------------------------------------------------------- the bench's own floor
+def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int = 1) -> dict[str, float]:
+    """How closely the bench repeats itself under the study's replay, per angle (deg).
+
+    The multisine is the same every period, so a model driven by it comes no closer to one period
+    than the periods come to each other.  Each period after the first ``drop_periods`` is cut into
+    the replay's windows, and each window restarted as ``Replay(reset_speeds=True)`` restarts the
+    model: its angle less the angle at the window's first sample ``a`` and the speed there (the
+    slope of the local quadratic over ``RESET_SPEED_HALF`` samples either side, ``local_fit``)
+    times the time since ``a``.  The floor is the RMS over a period's samples of their standard
+    deviation over the periods (ddof 1).  Periods that differ only in their angle and speed at each
+    seam give 0; independent noise ``sigma`` on the samples gives about
+    ``sigma sqrt(2 + mean(t^2) / (ts^2 sum k^2))`` (``t`` the time since a seam, ``k`` the quadratic's
+    sample offsets), the restart's angle and speed taking it in as they take it into the model."""
+    ts = m.sample_time_s
+    n, w = int(round(PERIOD_S / ts)), int(round(window_s / ts))
+    periods = len(m.time_s) // n - drop_periods
+    if periods < 2:
+        raise ValueError(f"{m.source}: needs at least {drop_periods + 2} periods of {PERIOD_S} s")
+    t = np.asarray(m.time_s, dtype=float)
+    out = {}
+    for name in ("motor_angle_deg", "load_angle_deg"):
+        y = np.asarray(m.signals[name], dtype=float)
+        rel = np.empty((periods, n))
+        for p in range(periods):
+            first = (drop_periods + p) * n
+            for a in range(0, n, w):
+                i = first + a
+                speed = local_fit(t, y, i, RESET_SPEED_HALF, 2)[1]
+                seg = slice(i, min(i + w, first + n))
+                rel[p, a:a + w] = y[seg] - y[i] - speed * (t[seg] - t[i])
+        out[name] = float(np.sqrt(np.mean(rel.var(axis=0, ddof=1))))
+    return out
+
+
+def period_errors(plant: Plant, m: Measurement, drop_periods: int = 1) -> dict[str, dict]:
+    """``plant`` replayed on each period of ``m`` after the first ``drop_periods`` (each cut as the
+    fit slice is, :func:`cut`), and per angle (deg) its error's RMS over them all, the part that
+    repeats every period (the RMS of the error's mean over the periods, its own share of the
+    non-repeating part taken out: what a better model could still explain) and the part that does
+    not (the RMS of its standard deviation over the periods, ddof 1)."""
+    n = int(round(PERIOD_S / m.sample_time_s))
+    periods = len(m.time_s) // n - drop_periods
+    errors = {}
+    for p in range(drop_periods, drop_periods + periods):
+        part = cut(m, (p * PERIOD_S, (p + 1) * PERIOD_S), f"{m.source}, period {p + 1}")
+        sim = replay_of(part).run(plant)
+        for name in ("motor_angle_deg", "load_angle_deg"):
+            errors.setdefault(name, []).append(np.asarray(part.signals[name]) - sim[name])
+    out = {}
+    for name, e in errors.items():
+        e = np.array(e)
+        var = float(np.mean(e.var(axis=0, ddof=1)))
+        out[name] = {"rms_deg": float(np.sqrt(np.mean(e ** 2))),
+                     "repeating_deg": float(np.sqrt(max(0.0, np.mean(e.mean(axis=0) ** 2) - var / len(e)))),
+                     "non_repeating_deg": math.sqrt(var), "periods": len(e)}
+    return out
+
+
 def diagnosis(fit_data: Measurement, workers: int | None = 1) -> dict:
     """diagnose's ladder from the bare plant on ``fit_data`` (see the module docstring)."""
     bare = bare_plant()
@@ -398,7 +461,21 @@ def markdown(r: dict) -> str:
                for e in final.effects) + "."]
     s = r["stated"]
     md += ["", "![ladder](twomass/ladder.png)", "",
-           "## The coupling stated, started from the FRF", "",
+           "## The bench's own floor: how closely it repeats itself", "",
+           f"The multisine is the same every period, so a model driven by it comes no closer to a period "
+           f"than the periods of record A come to each other ({r['period_errors']['motor_angle_deg']['periods']} "
+           f"after the first), each cut into the replay's {WINDOW_S:g} s windows and each window restarted from "
+           f"its first sample's angle and speed, as the replay restarts the model (`repeatability`). Beside "
+           f"it, diagnose's final model replayed on each of those periods: its error's RMS, the part of it "
+           f"that repeats every period (what a better model could still explain) and the part that does not "
+           f"(`period_errors`).", "",
+           "| angle | encoders' noise floor (deg) | the bench's repeatability (deg) | final model, fit slice (deg) "
+           "| final model, every period: RMS / repeating / not (deg) |", "|---|---|---|---|---|"]
+    for name, row in r["period_errors"].items():
+        md.append(f"| {name} | {r['noise_floors_deg'][name]:.3g} | {r['repeatability_deg'][name]:.3g} | "
+                  f"{r['fit_slice_rms_deg'][name]:.4g} | {row['rms_deg']:.3g} / {row['repeating_deg']:.3g} / "
+                  f"{row['non_repeating_deg']:.3g} |")
+    md += ["", "## The coupling stated, started from the FRF", "",
            f"Start: rotor {s['start']['rotor_inertia']:.4g}, load {s['start']['load_inertia']:.4g} kg m^2 "
            f"(per N m/A), stiffness {s['start']['stiffness']:.4g} N m/rad; fitted with the final "
            f"model's other effects ({'converged' if s['converged'] else 'did not converge'}; {s['wall_s']:.0f} s).", "",
@@ -433,9 +510,20 @@ def findings(r: dict) -> list[str]:
     out.append(f"The diagnosis ended {d['final_over_noise']:.0f}x above the noise floor "
                f"({d['rungs'][-1]['error_deg']:.3g} deg against {d['noise_floor_deg']:.2g} deg, the 2^20-count "
                f"encoders' noise); the coupling stated from the FRF ends {r['stated']['error_deg'] / d['noise_floor_deg']:.0f}x "
-               f"above it. Neither reaches the noise: what is left is not explained by any effect tried here "
+               f"above it. Neither reaches the encoders' noise, which no model of this record's input can (next): "
+               f"the part of the rest that repeats every period is not explained by any effect tried here "
                f"(candidates not tested: friction that depends on position or on the speed's history, the "
                f"current loop between the measured current and the torque).")
+    rep, per = r["repeatability_deg"], r["period_errors"]
+    worst = max(rep, key=lambda k: r["fit_slice_rms_deg"][k] / rep[k])
+    out.append(f"Under the study's replay the bench repeats itself to {rep['motor_angle_deg']:.2g} deg (motor angle) "
+               f"and {rep['load_angle_deg']:.2g} deg (load angle) RMS from period to period, "
+               f"{min(rep[k] / r['noise_floors_deg'][k] for k in rep):.0f}x the encoders' noise floor or more: no "
+               f"model driven by the measured current gets under that. On the fit slice diagnose's final model is "
+               f"at {r['fit_slice_rms_deg'][worst] / rep[worst]:.2f}x it ({worst}); over all "
+               f"{per[worst]['periods']} periods of record A at {per[worst]['rms_deg'] / rep[worst]:.2f}x, an error of "
+               f"{per[worst]['rms_deg']:.2g} deg of which {per[worst]['repeating_deg']:.2g} deg repeats every period "
+               f"(what a better model could still explain) and {per[worst]['non_repeating_deg']:.2g} deg does not.")
     better = r["stated"]["error_deg"] < d["rungs"][-1]["error_deg"]
     out.append(f"The coupling stated from the FRF {'beats' if better else 'does not beat'} diagnose's final model "
                f"on the fit slice ({r['stated']['error_deg']:.3g} against {d['rungs'][-1]['error_deg']:.3g} deg) and "
@@ -461,12 +549,16 @@ def run_study(data_dir=None, workers: int | None = 1) -> dict:
     diag = diagnosis(fit_data, workers)
     for row in diag["rungs"]:
         row["validation_error_deg"] = score(row["plant"], val_data)["error_deg"]
+    floor = repeatability(recs["A"])
+    errors = period_errors(diag["plant"], recs["A"])
+    on_slice = score(diag["plant"], fit_data)
     stated = stated_coupling(diag["plant"], fit_data, frf)
     stated["validation_error_deg"] = score(stated["plant"], val_data)["error_deg"]
     models = {"diagnose's final model": diag["plant"], "coupling stated (from the FRF, refitted)": stated["plant"]}
     r = {"source": dict(SOURCE), "record_features": rec_feat, "record_features_B": rec_feat_b, "frf_df_hz": frf["df_hz"],
          "frf_periods": frf["periods"], "frf_lines": int(len(frf["f_hz"])),
-         "diagnosis": diag, "stated": stated,
+         "diagnosis": diag, "stated": stated, "repeatability_deg": floor, "period_errors": errors,
+         "noise_floors_deg": on_slice["noise_floor_deg"], "fit_slice_rms_deg": on_slice["rms_deg"],
          "model_features": {k: model_features(p) for k, p in models.items()}}
     r["findings"] = findings(r)
     r["wall_s"] = time.perf_counter() - t0
@@ -490,6 +582,8 @@ def to_json(r: dict) -> dict:
             "record_features": r["record_features"], "record_features_B": r["record_features_B"], "frf_df_hz": r["frf_df_hz"], "frf_periods": r["frf_periods"],
             "frf_lines": r["frf_lines"], "fit_slice_s": FIT_SLICE_S, "validation_slice_s": VALIDATION_SLICE_S,
             "window_s": WINDOW_S, "candidates": CANDIDATES, "diagnosis": d, "stated": s,
+            "repeatability_deg": r["repeatability_deg"], "period_errors": r["period_errors"],
+            "noise_floors_deg": r["noise_floors_deg"], "fit_slice_rms_deg": r["fit_slice_rms_deg"],
             "model_features": r["model_features"], "findings": r["findings"], "wall_s": r["wall_s"]}
 
 

@@ -49,12 +49,6 @@ SHORT_CORRELATION = {"stribeck_friction (load)": 0.79, "stribeck_friction (motor
 records (measured 2026-11-25): Stribeck's curve against the sign of the speed alone, and the
 quantisation's steps under the noise.  Known shortfalls of ``evidence.py``: marked xfail after every other
 check has passed, so a regression in verdict, parameter or error still fails."""
-NEAR_BASIN = {"lugre_friction (motor)": "0.0348 deg, 2.36x"}
-"""Cases whose fit ends in a basin beside the truth, above ERROR_TOL x the noise floor (error in deg, x the
-floor; measured 2026-11-29): LuGre bristles at the rotor, found with their stiffness within 10 %, but the fit
-stops at damping 2.97e-3 (truth 2.75e-3); started from the truth it stays there at 1.01x, started with the
-damping 10 % high it goes to the same basin, from 6 scan starts too.  Marked xfail after the verdict and the
-main parameter have passed."""
 TIED = {"lugre_friction (load)": "stick and breakaway 0.94, sign of the speed 0.94"}
 """Cases whose signature measures above 0.9 but ties another as the strongest (measured 2026-11-29): LuGre's
 Stribeck speed, 0.5 rad/s at the load, is small beside the record's speeds, so its curve is the sign of the
@@ -91,9 +85,6 @@ def test_hidden_effect_is_found(label):
     assert (r["verdict"], r["options"]) == (name, {k: v for k, v in values.items() if isinstance(v, str)}), \
         (r["verdict"], r["options"], r["runner_up"], r["reason"])
     assert r["fitted"] == pytest.approx(values[main], rel=PARAM_TOL), r["fitted_params"]
-    if label in NEAR_BASIN and r["error"] > ERROR_TOL * r["noise_floor"]:
-        pytest.xfail(f"{label}: error {r['error']:.3g} = {r['error'] / r['noise_floor']:.3g}x the noise floor "
-                     f"(known, {NEAR_BASIN[label]})")
     assert r["error"] <= ERROR_TOL * r["noise_floor"], (r["error"], r["noise_floor"])
     # the explanation names this effect's signature and measures it on the residual
     text = r["explanation"]

@@ -63,6 +63,63 @@ def test_a_slice_keeps_the_couplings_twist(records):
     assert s.signals["motor_angle_deg"][0] == 0.0
 
 
+def _periodic_record(periods=6, drift=False, sigma=0.0, seed=0):
+    """A bench that repeats a 1 s motion exactly (2.5 kHz), each window of each period started at its
+    own angle and speed when ``drift`` (a steady acceleration over the record, the same inside every
+    window), with independent noise ``sigma`` (deg) on every sample."""
+    ts, n = 1 / 2500, 2500
+    t = np.arange(periods * n) * ts
+    tau = t % 1.0
+    shape = 3.0 * np.sin(2 * np.pi * 13 * tau) + 0.7 * np.sin(2 * np.pi * 77 * tau + 1.0)
+    rng = np.random.default_rng(seed)
+    angles = {}
+    for name in ("motor_angle_deg", "load_angle_deg"):
+        y = shape.copy()
+        if drift:  # what the restart takes out: another angle and speed at every seam of every period
+            y += rng.uniform(1.0, 3.0) * t ** 2
+        angles[name] = y + sigma * rng.standard_normal(t.size)
+    return from_arrays(t, "drive_torque_Nm", np.sin(2 * np.pi * 13 * tau), angles, source="periodic")
+
+
+def test_a_bench_that_repeats_up_to_its_seams_angles_and_speeds_has_no_repeatability_floor():
+    exact = T.repeatability(_periodic_record())
+    drifting = T.repeatability(_periodic_record(drift=True))
+    for name in ("motor_angle_deg", "load_angle_deg"):
+        assert exact[name] < 1e-9 and drifting[name] < 1e-9, (exact, drifting)
+
+
+def test_independent_noise_gives_the_repeatability_its_restart_predicts():
+    """rel(t) = e(t) - e(a) - s t, s = sum_k c_k e(a + k) the quadratic's slope (over symmetric offsets k it is
+    the line's, c_k = k / (ts sum k^2)): the variance at each sample from the restart's coefficients."""
+    sigma, ts, w, half = 0.01, 1 / 2500, 250, T.RESET_SPEED_HALF
+    k = np.arange(-half, half + 1)
+    c = k / (ts * np.sum(k ** 2))
+    var = []
+    for j in range(w):
+        coef = np.zeros(w + half + 1)
+        offset = half  # the window's first sample at index ``half``
+        coef[offset + j] += 1.0
+        coef[offset] -= 1.0
+        coef[offset + k] -= c * j * ts
+        var.append(np.sum(coef ** 2))
+    predicted = sigma * math.sqrt(np.mean(var))
+    got = T.repeatability(_periodic_record(periods=41, sigma=sigma, seed=4))
+    for name in got:  # 10 windows x 39 degrees of freedom: the estimate's own spread is about 4 %
+        assert got[name] == pytest.approx(predicted, rel=0.12), (got, predicted)
+
+
+def test_the_real_bench_repeats_itself_far_above_its_encoders_noise(records):
+    """What no model of the record's input gets under: on both records the periods differ, under the
+    study's replay, by hundreds of the encoders' noise floor (the current loop and the friction's
+    wander are not the same from one period to the next)."""
+    for tag in ("A", "B"):
+        rep = T.repeatability(records[tag])
+        slice_ = T.cut(records[tag], T.FIT_SLICE_S, tag)
+        replay = T.replay_of(slice_)
+        for name, floor in rep.items():
+            assert floor > 100 * replay.noise_floor(name), (tag, name, floor, replay.noise_floor(name))
+
+
 def test_missing_data_is_a_clear_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="--data-dir"):
         T.data_files(tmp_path / "nowhere")

@@ -518,7 +518,8 @@ class _Trials:
 
 def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None = None,
         max_nfev: int | None = None, start: list[float] | None = None, central: bool = False,
-        restarts: int = 0, rounds_below: float | None = None, sharp: bool = True) -> FitResult:
+        restarts: int = 0, rounds_below: float | None = None, sharp: bool = True,
+        seams: tuple | None = None) -> FitResult:
     """Fit ``frees`` of ``plant`` to the replayed record.
 
     ``central``: the Jacobian at the end, for the standard errors, by central differences (2k
@@ -539,6 +540,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     the fit ended where its start's resets, no longer needed, stayed held, and the standard
     errors' coverage (``tests/test_uncertainty.py``) fell to 72 %.
     The first round too: a fit that ends worse than its start so ends where it started (:func:`_rounds`).
+    ``seams``: the resets its first round holds (``()`` none) instead of its start's (``refit.without_resets``).
 
     ``rounds_below``: start another round only while the RSS (by the replay's own resets) is
     below this by more than :data:`RESTART_GAIN`.  Diagnose's screen passes the RSS of the model
@@ -569,7 +571,7 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     z0 = np.clip(x0 / sc, *trials.bounds)
     try:
         res, nfev, rounds = _rounds(trials, z0, trials.bounds, central, max_nfev or 40 * (len(frees) + 1), restarts,
-                                    rounds_below)
+                                    rounds_below, seams)
     except ValueError as exc:
         return FitResult(plant, {}, math.nan, math.nan, 0, len(frees), False,
                          f"the fit could not run: {exc}", 0)
@@ -577,9 +579,10 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
 
 
 def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts: int,
-            rounds_below: float | None):
-    """:func:`fit`'s rounds of least squares from ``z0``, each with the resets held where the last
-    ended: the kept round's ``least_squares`` result, the replays spent and the rounds after the first.
+            rounds_below: float | None, held: tuple | None = None):
+    """:func:`fit`'s rounds of least squares from ``z0``, the first with the resets ``held`` (None:
+    ``z0``'s own), each other with them held where the last ended: the kept round's
+    ``least_squares`` result, the replays spent and the rounds after the first.
     Only the kept round's end is given a finite-difference Jacobian (for the standard errors): each
     round that another follows or replaces would cost k replays for one (2k central; ``lazy``).
 
@@ -590,6 +593,7 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
     589,543, and the BIC kept the Stribeck law."""
     nfev, kept, rounds = 0, None, 0
     seams, start_rss = trials.settle(z0)
+    seams = seams if held is None else tuple(held)
     for rounds in range(max(restarts, 1) + 1):
         fun = partial(trials.residual, seams=seams)
         res = secant_least_squares(fun, z0, bounds, central, max_nfev, lazy=True)

@@ -10,8 +10,9 @@ sentence is written here.
 
 One rung (:func:`_rung`): screen the candidates with the model's effects held, refit the best
 ``joint_top`` with them (:func:`screen`); let the calibration of the datasheet values compete
-(:func:`_calibration`); accept the best if it pays, or a pair fitted jointly that beats it
-(:func:`_pairs`); simplify what was added (:func:`_simplify`); take out what no longer pays
+(:func:`_calibration`); accept the best if it pays, fitted again without the resets that can hold
+it beside its optimum (:func:`_settled`), or a pair fitted jointly that beats it (:func:`_pairs`),
+so fitted again too; simplify what was added (:func:`_simplify`); take out what no longer pays
 (:func:`_prune`).
 """
 from __future__ import annotations
@@ -26,8 +27,8 @@ import numpy as np
 from ..plant.components import Plant
 from ..plant.effects import AddedEffect
 from . import calibration, search
-from .candidates import (Pair, Trial, Tried, candidates, fit_each, fit_each_later, fit_pairs_later, pair_jobs, rank,
-                         run_jobs, run_pair)
+from .candidates import (Pair, Trial, Tried, as_tried, candidates, fit_each, fit_each_later, fit_pairs_later,
+                         pair_jobs, rank, run_jobs, run_pair)
 from .executor import Executor
 from .fit import FitResult, Free, get_value, plant_frees, sharpen
 from .numerics import refine
@@ -35,7 +36,7 @@ from .scoring import Scorer, bic_drop
 from .timing import Cost
 from .policy import Policy
 from .progress import Tracker
-from .refit import best_fit, frees_of, refit, refit_job
+from .refit import best_fit, frees_of, refit, refit_job, without_resets
 from .replay import Replay
 from .uncertainty import strong_correlations
 
@@ -207,8 +208,11 @@ def _rung(ctx: Context, state: State) -> Iterator[State]:
         yield replace(state, stop=Stop("noise floor" if ctx.policy.explained(state.model) else "nothing pays",
                                        True, best, bool(tried)))
         return
+    best = _settled(ctx, best, number)
     pair, unfitted, ahead = (_pairs(ctx, state, best, tried, added, number)
                              if len(state.rungs) + 2 <= ctx.max_steps else (None, 0, None))
+    if pair is not None:
+        pair = replace(pair, result=_unreset(ctx, pair.result, number))
     ctx.tracker.stage("simplify", number)
     state = (_add(ctx, state, best, tried, ahead) if pair is None
              else _add_pair(ctx, state, Joint(pair, best, unfitted, True), tried, added))
@@ -307,6 +311,24 @@ def _alone(ctx: Context, state: State, best: Tried) -> tuple[FitResult, list]:
     """The model with ``best`` added alone, simplified (:func:`_simplify`: the result and its notes)."""
     added = ctx.added(state.model.plant) + (len(state.model.plant.effects),)
     return _simplify(ctx, best.result, added, state.refitted)
+
+
+def _unreset(ctx: Context, res: FitResult, number: int) -> FitResult:
+    """:func:`~gearbench.identify.refit.without_resets` of ``res`` (a stage of step ``number`` where
+    its replay resets at some seam)."""
+    if not res.seams:
+        return res
+    ctx.tracker.stage("without resets", number)
+    return without_resets(ctx.replay, ctx.scorer, res)
+
+
+def _settled(ctx: Context, best: Tried, number: int) -> Tried:
+    """``best`` (the candidate a rung adds) with its fit :func:`_unreset`."""
+    got = _unreset(ctx, best.result, number)
+    if got is best.result:
+        return best
+    fresh = as_tried(best.candidate, got)
+    return replace(best, result=got, params=fresh.params, stderr=fresh.stderr)
 
 
 def _look_ahead(ctx: Context, state: State, best: Tried, number: int) -> Ahead:

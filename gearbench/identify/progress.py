@@ -7,8 +7,8 @@ from typing import Callable
 
 from .timing import Timing
 
-STAGES = ("baseline", "calibration plan", "candidates", "second starts", "joint refit", "calibration", "pairs",
-          "pair second starts", "simplify", "prune", "numerical check")
+STAGES = ("baseline", "calibration plan", "candidates", "second starts", "joint refit", "calibration",
+          "without resets", "pairs", "pair second starts", "simplify", "prune", "numerical check")
 """The stages of one rung, in order (``ProgressEvent.stage``); the first two come once, before the
 first, and the last once, after the last (``ladder.refined``)."""
 
