@@ -110,8 +110,7 @@ def test_independent_noise_gives_the_repeatability_its_restart_predicts():
 
 def test_the_real_bench_repeats_itself_far_above_its_encoders_noise(records):
     """What no model of the record's input gets under: on both records the periods differ, under the
-    study's replay, by hundreds of the encoders' noise floor (the current loop and the friction's
-    wander are not the same from one period to the next)."""
+    study's replay, by over a hundred times the encoders' noise floor."""
     for tag in ("A", "B"):
         rep = T.repeatability(records[tag])
         slice_ = T.cut(records[tag], T.FIT_SLICE_S, tag)
