@@ -7,17 +7,20 @@ it holds itself.  ``refit.without_resets`` fits such an end again with no resets
 that fit only where it ends lower by the replay's own resets; diagnose does so for each rung's
 model.  The record is ``studies.hidden_effects``' LuGre friction at the rotor, whose diagnosis ended
 at 2.41x its noise floor before (``results/hidden_effects.md`` of 2026-12-07); the whole diagnosis
-is ``tests/test_diagnose.py``'s (slow).
+is ``tests/test_diagnose.py``'s (slow).  On practice case p02, from the independent simulator, a model
+that needs its resets is given back unchanged.
 """
 from __future__ import annotations
 
 import pytest
 
+from conftest import DATA
 from gearbench.experiment.files import load_plant
 from gearbench.identify.fit import Free, evaluate, fit
 from gearbench.identify.refit import without_resets
 from gearbench.identify.replay import Replay
 from gearbench.identify.scoring import Scorer
+from gearbench.measure.data import read_measurement
 from gearbench.plant.effects import AddedEffect
 from studies.hidden_effects import CASES, PLANTS, record
 
@@ -61,4 +64,19 @@ def test_a_fit_without_resets_is_kept_only_where_it_ends_lower(lugre_at_the_roto
     coulomb = plant.with_effects(AddedEffect("coulomb_friction", {"location": "motor", "torque": 0.01}))
     res = fit(replay, coulomb, Free.effect(coulomb, 0, replay.data.sample_time_s), scorer)
     assert res.converged and res.seams
+    assert without_resets(replay, scorer, res) is res
+
+
+def test_on_an_independent_record_a_model_that_needs_its_resets_is_kept():
+    """Practice case p02 (the independent stick-slip simulator: Coulomb friction and a load spring):
+    the friction fitted alone, the spring missing, drifts and is reset at most seams; fitted again
+    without them it ends higher, so ``without_resets`` gives it back unchanged, as in diagnose's
+    ladder on the practice cases wherever it ran (``results/bench.json``, ``practice_without_resets``)."""
+    folder = DATA / "cases" / "p02"
+    replay = Replay(read_measurement(folder / "data.csv"))
+    scorer = Scorer(replay)
+    plant = load_plant(folder / "nominal.yaml").with_effects(
+        AddedEffect("coulomb_friction", {"location": "load", "torque": 0.05}))
+    res = fit(replay, plant, Free.effect(plant, len(plant.effects) - 1, replay.data.sample_time_s), scorer)
+    assert res.converged and len(res.seams) >= 5
     assert without_resets(replay, scorer, res) is res
