@@ -759,8 +759,9 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
         naming the first missing sample.  The JSON's ``gaps`` says how many and where.
     reset_speeds : bool
         Open loop: at every window seam also set the model's speeds to the measured
-        ones (a local quadratic fit of the measured angles; as ``--reset-speeds``), not
-        only its angles.  For a record whose low frequencies are not excited (a
+        ones (a local quartic fit of the measured angles; as ``--reset-speeds``), not
+        only its angles, and start the model as the record's first sample has it
+        (angles, a shaft's twist, speeds), not at rest.  For a record whose low frequencies are not excited (a
         multisine on a current-driven machine), where a window's speed error carried
         into the next drifts the angles more than the dynamics move them.  Default off.
 

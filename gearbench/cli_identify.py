@@ -59,8 +59,9 @@ def _remember_reset_speeds(ctx, param, value):
 
 _reset_speeds = click.option(
     "--reset-speeds", is_flag=True, default=False, expose_value=False, callback=_remember_reset_speeds,
-    help="Open loop: at every window seam set the model's speeds to the measured ones too (a local quadratic "
-         "fit of the measured angles), not only its angles.  For a record whose low frequencies are not "
+    help="Open loop: at every window seam set the model's speeds to the measured ones too (a local quartic "
+         "fit of the measured angles), not only its angles, and start the model as the record's first sample "
+         "has it (angles, a shaft's twist, speeds), not at rest.  For a record whose low frequencies are not "
          "excited (a multisine on a current-driven machine), where a window's speed error carried into the "
          "next drifts the angles more than the dynamics move them (docs: the two-mass bench).")
 

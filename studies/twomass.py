@@ -53,7 +53,7 @@ import numpy as np
 from gearbench.experiment.files import load_plant
 from gearbench.identify.diagnose import diagnose
 from gearbench.identify.fit import Free, fit
-from gearbench.identify.replay import RESET_SPEED_HALF, Replay, local_fit
+from gearbench.identify.replay import Replay, seam_speed
 from gearbench.identify.scoring import Scorer
 from gearbench.measure.data import Measurement, from_arrays, read_measurement
 from gearbench.plant.components import Plant
@@ -275,32 +275,32 @@ def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int 
     """How closely the bench repeats itself under the study's replay, per angle (deg).
 
     The multisine is the same every period, so a model driven by it comes no closer to one period
-    than the periods come to each other.  Each period after the first ``drop_periods`` is cut into
-    the replay's windows, and each window restarted as ``Replay(reset_speeds=True)`` restarts the
-    model: its angle less the angle at the window's first sample ``a`` and the speed there (the
-    slope of the local quadratic over ``RESET_SPEED_HALF`` samples either side, ``local_fit``)
-    times the time since ``a``.  The floor is the RMS over a period's samples of their standard
-    deviation over the periods (ddof 1).  Periods that differ only in their angle and speed at each
-    seam give 0; independent noise ``sigma`` on the samples gives about
-    ``sigma sqrt(2 + mean(t^2) / (ts^2 sum k^2))`` (``t`` the time since a seam, ``k`` the quadratic's
-    sample offsets), the restart's angle and speed taking it in as they take it into the model."""
+    than the periods come to each other.  Each period after the first ``drop_periods`` is cut as
+    :func:`period_errors` cuts it and into the replay's windows, and each window restarted as
+    ``Replay(reset_speeds=True)`` restarts the model: its angle less the angle at the window's
+    first sample ``a`` and the speed there (``seam_speed`` of the period's samples: one-sided at its
+    first) times the time since ``a``.  The floor is the RMS over a period's samples of their
+    standard deviation over the periods (ddof 1).  Periods that differ only in their angle and
+    speed at each seam give 0; independent noise ``sigma`` on the samples gives
+    ``sigma sqrt(mean(1 + (1 - c_0 t)^2 + t^2 sum_k c_k^2))`` with ``t`` the time since a seam and
+    ``c_k`` the slope's weights on the samples at offsets ``k`` from it (where a sample is both,
+    its weights add), the restart's angle and speed taking the noise in as they take it into the
+    model."""
     ts = m.sample_time_s
     n, w = int(round(PERIOD_S / ts)), int(round(window_s / ts))
     periods = len(m.time_s) // n - drop_periods
     if periods < 2:
         raise ValueError(f"{m.source}: needs at least {drop_periods + 2} periods of {PERIOD_S} s")
-    t = np.asarray(m.time_s, dtype=float)
+    t = np.asarray(m.time_s, dtype=float)[:n] - float(m.time_s[0])
     out = {}
     for name in ("motor_angle_deg", "load_angle_deg"):
-        y = np.asarray(m.signals[name], dtype=float)
         rel = np.empty((periods, n))
         for p in range(periods):
             first = (drop_periods + p) * n
+            y = np.asarray(m.signals[name][first:first + n], dtype=float)
             for a in range(0, n, w):
-                i = first + a
-                speed = local_fit(t, y, i, RESET_SPEED_HALF, 2)[1]
-                seg = slice(i, min(i + w, first + n))
-                rel[p, a:a + w] = y[seg] - y[i] - speed * (t[seg] - t[i])
+                seg = slice(a, min(a + w, n))
+                rel[p, seg] = y[seg] - y[a] - seam_speed(t, y, a) * (t[seg] - t[a])
         out[name] = float(np.sqrt(np.mean(rel.var(axis=0, ddof=1))))
     return out
 
@@ -470,12 +470,13 @@ def markdown(r: dict) -> str:
            f"that repeats every period (what a better model could still explain) and the part that does not "
            f"(`period_errors`).", "",
            "| angle | encoders' noise floor (deg) | the bench's repeatability, record A (deg) | record B (deg) "
-           "| final model, fit slice (deg) | final model, every period: RMS / repeating / not (deg) |",
-           "|---|---|---|---|---|---|"]
+           "| final model, fit slice (deg) | final model, every period: RMS / repeating / not (deg) "
+           "| final model, record B's validation slice (deg) |",
+           "|---|---|---|---|---|---|---|"]
     for name, row in r["period_errors"].items():
         md.append(f"| {name} | {r['noise_floors_deg'][name]:.3g} | {r['repeatability_deg'][name]:.3g} | "
                   f"{r['repeatability_B_deg'][name]:.3g} | {r['fit_slice_rms_deg'][name]:.4g} | {row['rms_deg']:.3g} / {row['repeating_deg']:.3g} / "
-                  f"{row['non_repeating_deg']:.3g} |")
+                  f"{row['non_repeating_deg']:.3g} | {r['validation_rms_deg'][name]:.4g} |")
     md += ["", "## The coupling stated, started from the FRF", "",
            f"Start: rotor {s['start']['rotor_inertia']:.4g}, load {s['start']['load_inertia']:.4g} kg m^2 "
            f"(per N m/A), stiffness {s['start']['stiffness']:.4g} N m/rad; fitted with the final "
@@ -504,9 +505,13 @@ def findings(r: dict) -> list[str]:
             out.append(f"{name}: no coupling, so no resonance.")
             continue
         hit = hits[name] = abs(und["resonance_hz"] - src["resonance_hz"]) <= max(tol, 0.05 * src["resonance_hz"])
+        off = None if rec["antiresonance_hz"] is None else und["antiresonance_hz"] - rec["antiresonance_hz"]
         out.append(f"{name}: its coupling resonates at {und['resonance_hz']:.4g} Hz (anti-resonance "
                    f"{und['antiresonance_hz']:.4g} Hz), {'within 5 % of' if hit else 'not'} the source's "
-                   f"{src['resonance_hz']} Hz{'' if hit else ': it is not the bench coupling'}.")
+                   f"{src['resonance_hz']} Hz{'' if hit else ': it is not the bench coupling'}; its anti-resonance "
+                   + ("cannot be set beside the record's, which has none." if off is None else
+                      f"{'agrees with' if abs(off) <= tol else 'is off'} the record's {_fmt(rec['antiresonance_hz'])} Hz "
+                      f"({off:+.2g} Hz; tolerance {tol:g} Hz)."))
     d = r["diagnosis"]
     out.append(f"The diagnosis ended {d['final_over_noise']:.0f}x above the noise floor "
                f"({d['rungs'][-1]['error_deg']:.3g} deg against {d['noise_floor_deg']:.2g} deg, the 2^20-count "
@@ -524,7 +529,10 @@ def findings(r: dict) -> list[str]:
                f"at {r['fit_slice_rms_deg'][worst] / rep[worst]:.2f}x it ({worst}); over all "
                f"{per[worst]['periods']} periods of record A at {per[worst]['rms_deg'] / rep[worst]:.2f}x, an error of "
                f"{per[worst]['rms_deg']:.2g} deg of which {per[worst]['repeating_deg']:.2g} deg repeats every period "
-               f"(what a better model could still explain) and {per[worst]['non_repeating_deg']:.2g} deg does not.")
+               f"(what a better model could still explain) and {per[worst]['non_repeating_deg']:.2g} deg does not; "
+               f"on record B's validation slice, which it was not fitted to, at "
+               f"{r['validation_rms_deg'][worst] / r['repeatability_B_deg'][worst]:.2f}x record B's "
+               f"({r['validation_rms_deg'][worst]:.2g} against {r['repeatability_B_deg'][worst]:.2g} deg).")
     better = r["stated"]["error_deg"] < d["rungs"][-1]["error_deg"]
     out.append(f"The coupling stated from the FRF {'beats' if better else 'does not beat'} diagnose's final model "
                f"on the fit slice ({r['stated']['error_deg']:.3g} against {d['rungs'][-1]['error_deg']:.3g} deg) and "
@@ -552,7 +560,7 @@ def run_study(data_dir=None, workers: int | None = 1) -> dict:
         row["validation_error_deg"] = score(row["plant"], val_data)["error_deg"]
     floor, floor_b = repeatability(recs["A"]), repeatability(recs["B"])
     errors = period_errors(diag["plant"], recs["A"])
-    on_slice = score(diag["plant"], fit_data)
+    on_slice, on_b = score(diag["plant"], fit_data), score(diag["plant"], val_data)
     stated = stated_coupling(diag["plant"], fit_data, frf)
     stated["validation_error_deg"] = score(stated["plant"], val_data)["error_deg"]
     models = {"diagnose's final model": diag["plant"], "coupling stated (from the FRF, refitted)": stated["plant"]}
@@ -561,7 +569,7 @@ def run_study(data_dir=None, workers: int | None = 1) -> dict:
          "diagnosis": diag, "stated": stated, "repeatability_deg": floor, "repeatability_B_deg": floor_b,
          "period_errors": errors,
          "noise_floors_deg": on_slice["noise_floor_deg"], "fit_slice_rms_deg": on_slice["rms_deg"],
-         "model_features": {k: model_features(p) for k, p in models.items()}}
+         "validation_rms_deg": on_b["rms_deg"], "model_features": {k: model_features(p) for k, p in models.items()}}
     r["findings"] = findings(r)
     r["wall_s"] = time.perf_counter() - t0
     r["_frf"], r["_models"] = frf, models
@@ -587,6 +595,7 @@ def to_json(r: dict) -> dict:
             "repeatability_deg": r["repeatability_deg"], "repeatability_B_deg": r["repeatability_B_deg"],
             "period_errors": r["period_errors"],
             "noise_floors_deg": r["noise_floors_deg"], "fit_slice_rms_deg": r["fit_slice_rms_deg"],
+            "validation_rms_deg": r["validation_rms_deg"],
             "model_features": r["model_features"], "findings": r["findings"], "wall_s": r["wall_s"]}
 
 

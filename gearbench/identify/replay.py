@@ -15,12 +15,13 @@ significant against the noise, white or coloured, as the record's opening rest
 shows it (:meth:`Replay._reset_angles`); the speeds, current and mesh state run on
 from the previous window.
 Opt-in, ``Replay(reset_speeds=True)`` also sets the speeds at every seam to the
-measured ones (a local quadratic fit of the measured angles around the seam,
-:data:`RESET_SPEED_HALF` samples either side): for a record whose low frequencies
-are not excited (a multisine on a current-driven machine, ``studies/twomass.py``)
-the speed error a window carries over from the last drifts the angles far more
-than the dynamics in the window, and the windows then compare the model on what
-the record excites.
+measured ones (:func:`seam_speed`, a local polynomial fit of the measured angles
+around the seam), and starts the model at the record's first sample as measured,
+moving: its angles, a shaft's twist and its speeds.  For a record whose low
+frequencies are not excited (a multisine on a current-driven machine,
+``studies/twomass.py``) the speed error a window carries over from the last drifts
+the angles far more than the dynamics in the window, and the windows then compare
+the model on what the record excites.
 A run returns where it moved them with its columns (:class:`ReplayRun`); the replay itself
 is frozen, so one run's resets cannot be read as another's.
 
@@ -64,9 +65,18 @@ failing."""
 MAX_STEP_S = 1e-3
 """A replay's largest solver step, s."""
 RESET_SPEED_HALF = 5
-"""``reset_speeds``: samples either side of a seam in the local quadratic fit of a measured angle
-that gives its speed (11 samples: 4.4 ms at 2.5 kHz, a third of the period of the two-mass bench's
-77 Hz mode, so the fit follows it)."""
+"""``reset_speeds``: samples either side of a seam in the local polynomial fit of a measured angle
+that gives its speed (:func:`seam_speed`; 11 samples: 4.4 ms at 2.5 kHz, a third of the period of
+the two-mass bench's 77 Hz mode)."""
+RESET_SPEED_DEGREE = 4
+"""The degree of :func:`seam_speed`'s polynomial.  Its slope is a filter of the measured angle, and
+it must pass the speeds of the band the record excites: over 11 samples at 2.5 kHz a quadratic's
+slope gives 89 % of a 77 Hz motion's speed and 22 % at 250 Hz (the two-mass bench's mode and the
+top of its multisine), a quartic's 99.8 % and 82 %.  The price is noise: a white noise ``sigma`` on
+the angle gives the quartic's slope ``614 sigma`` per second (the quadratic's ``238 sigma``), with
+the bench's 2^20-count encoders 0.006 deg over a 0.1 s window.  On the two-mass bench, started as
+measured, the diagnosis with the quadratic's seams ended 0.870 deg from record A over its 19 periods
+and 1.50 deg from record B; with the quartic's, 0.610 and 0.862 deg (``docs/twomass.md``)."""
 
 
 @dataclass
@@ -131,6 +141,23 @@ def local_fit(t: np.ndarray, y: np.ndarray, i: int, half: int = 10, degree: int 
             float(np.sqrt(cov[-2, -2] * s2)))
 
 
+def seam_speed(t: np.ndarray, y: np.ndarray, a: int, half: int = RESET_SPEED_HALF,
+               degree: int = RESET_SPEED_DEGREE) -> float:
+    """The slope of ``y`` at sample ``a`` (per unit of ``t``): the derivative at ``t[a]`` of the
+    least-squares polynomial of ``degree`` through ``2 half + 1`` samples, centred on ``a`` where
+    the record allows and else its first or last ``2 half + 1`` (a record's first sample: a
+    one-sided fit); the degree falls to what fewer samples support (0 for under three)."""
+    n, m = len(t), 2 * half + 1
+    lo = min(max(0, a - half), max(0, n - m))
+    hi = min(n, lo + m)
+    degree = min(degree, hi - lo - 2)
+    if degree < 1:
+        return 0.0
+    scale = float(np.max(np.abs(t[lo:hi] - t[a]))) or 1.0  # a well-conditioned Vandermonde
+    coef = np.polyfit((t[lo:hi] - t[a]) / scale, y[lo:hi], degree)
+    return float(coef[-2]) / scale
+
+
 @dataclass(frozen=True, eq=False)
 class ReplayRun(Mapping):
     """The simulated columns of one :meth:`Replay.run`, by name (``sim[name]``, ``sim.items()``),
@@ -170,7 +197,8 @@ class Replay:
     unit, where it is known (a record of the machine at rest, a sensor's datasheet): it is
     their noise floor (:meth:`noise_floor`) and the least drift a window's reset acts on;
     reset_speeds: at every window seam also set the model's speeds to the measured ones
-    (:meth:`_reset_speeds`; open loop with more than one window only; off by default).
+    (:meth:`_reset_speeds`), and start it at the record's first sample as measured
+    (:meth:`_start_as_measured`; open loop with more than one window only; off by default).
 
     Frozen: a run returns what it found (:class:`ReplayRun`) and sets nothing here.  Equal and
     hashed by identity (it holds the record's arrays).  ``meter``: what counts each run and fit
@@ -378,19 +406,37 @@ class Replay:
             self._read[key] = line_end_noise(self.measured(name)[:self.opening_rest()], m)
         return self._read[key]
 
+    def _start_as_measured(self, x: np.ndarray, plant: Plant) -> None:
+        """Set the angle states to the record's first sample (``reset_speeds``, whose record may
+        start moving and twisted: a cut of a longer record): the rotor's angle from the motion
+        signal (:meth:`motion`) and, where both the motor's and the load's angle are measured, a
+        shaft's twist ``phi = theta_m - N (theta_l + delta)`` (rad at the rotor; the mesh's
+        ``delta`` as it is, held by its contact).  Why: from rest and untwisted, a slice of the
+        two-mass bench started with its coupling's -0.87 deg twist (at 1 s into record A) missing,
+        8.7 N m on a 575 N m/rad coupling, and a slice of record B moving: the study's final model
+        was 6.6 deg off in the first 0.1 s of each period of record B and 0.4-0.9 deg in the others."""
+        name, th = self.motion(plant)
+        if th is None:
+            return
+        n, sig = plant.gear.ratio, self.data.signals
+        x[L.X_THM] = n * th[0] if name.startswith("motor") else n * (th[0] + x[L.X_DELTA]) + x[L.X_PHI]
+        if plant.resolved().shaft is not None and "motor_angle_deg" in sig and "load_angle_deg" in sig:
+            theta_l = S.to_output_rad("load_angle_deg", sig["load_angle_deg"][0], plant)
+            x[L.X_PHI] = n * S.to_output_rad("motor_angle_deg", sig["motor_angle_deg"][0], plant) \
+                - n * (theta_l + x[L.X_DELTA])
+
     def _reset_speeds(self, x: np.ndarray, a: int, plant: Plant) -> None:
         """Set the speed states at sample ``a`` to the measured ones (``reset_speeds``): each measured
-        angle's slope at ``a`` by a local quadratic fit over :data:`RESET_SPEED_HALF` samples either
-        side.  The rotor's speed from the motor's angle (else from the load's), the load's (and on a
-        rigid gear the pinion's) from the load's angle (else from the motor's); a shaft's pinion
-        speed on a compliant gear from the motor's.  The angles are moved as without it
+        angle's slope at ``a`` (:func:`seam_speed`).  The rotor's speed from the motor's angle (else
+        from the load's), the load's (and on a rigid gear the pinion's) from the load's angle (else
+        from the motor's); a shaft's pinion speed on a compliant gear from the motor's.  The angles are moved as without it
         (:meth:`_reset_angles`)."""
         n = plant.gear.ratio
         rates = {}
         for name in ("motor_angle_deg", "motor_position_mm", "load_angle_deg", "load_position_mm"):
             if name in self.data.signals and name.split("_")[0] not in rates:
                 th = S.to_output_rad(name, self.data.signals[name], plant)
-                rates[name.split("_")[0]] = local_fit(self.t, th, a, RESET_SPEED_HALF, 2)[1]
+                rates[name.split("_")[0]] = seam_speed(self.t, th, a)
         if not rates:
             return
         wl_motor = rates.get("motor", rates.get("load"))   # output rad/s
@@ -521,7 +567,9 @@ class Replay:
         for a, b in windows:
             if a > 0 and self._reset_angles(x, a, plant, solved.outs[-1], motion, held):
                 solved.moved.append(a)
-            if a > 0 and self.reset_speeds:
+            if self.reset_speeds:
+                if a == 0:
+                    self._start_as_measured(x, plant)
                 self._reset_speeds(x, a, plant)
             segs = self._segments(plant, a, b)
             t_end = float(self.t[b - 1] - self.t[a]) if b == len(self.t) else float(self.t[b] - self.t[a])
