@@ -281,11 +281,11 @@ def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int 
     first sample ``a`` and the speed there (``seam_speed`` of the period's samples: one-sided at its
     first) times the time since ``a``.  The floor is the RMS over a period's samples of their
     standard deviation over the periods (ddof 1).  Periods that differ only in their angle and
-    speed at each seam give 0; independent noise ``sigma`` on the samples gives
-    ``sigma sqrt(mean(1 + (1 - c_0 t)^2 + t^2 sum_k c_k^2))`` with ``t`` the time since a seam and
-    ``c_k`` the slope's weights on the samples at offsets ``k`` from it (where a sample is both,
-    its weights add), the restart's angle and speed taking the noise in as they take it into the
-    model."""
+    speed at each seam give 0; independent noise ``sigma`` on the samples gives at each sample the
+    variance ``sigma^2`` times the sum of the squares of its coefficients on the samples (+1 on
+    itself, -1 on the seam's, ``-t c_k`` on each sample the slope reads with weight ``c_k``, ``t``
+    the time since the seam; added where two fall on one sample): the restart's angle and speed take
+    the noise in as they take it into the model."""
     ts = m.sample_time_s
     n, w = int(round(PERIOD_S / ts)), int(round(window_s / ts))
     periods = len(m.time_s) // n - drop_periods
