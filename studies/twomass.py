@@ -30,7 +30,8 @@ It writes ``results/twomass.md``, ``results/twomass.json`` and PNG figures under
    the resonance), everything refitted (``fit``).
 4. **The bench's own floor** (``repeatability``, ``period_errors``): how closely the bench repeats
    itself from period to period under the replay's windows and restarts, which no model driven by
-   the record's input gets under, and diagnose's final model's error on every period of record A,
+   the record's input gets under unless its torques depend on position (the periods differ in where
+   the machine is), and diagnose's final model's error on every period of record A,
    split into the part that repeats each period and the part that does not.
 5. For each model: its error on the fit slice and on one period of record B (validation), its
    linear FRF (coupling, inertias and viscous terms; Coulomb friction and constant torques left
@@ -518,14 +519,16 @@ def findings(r: dict) -> list[str]:
                f"encoders' noise); the coupling stated from the FRF ends {r['stated']['error_deg'] / d['noise_floor_deg']:.0f}x "
                f"above it. Neither reaches the encoders' noise, which no model of this record's input can (next): "
                f"the part of the rest that repeats every period is not explained by any effect tried here "
-               f"(candidates not tested: friction that depends on position or on the speed's history, the "
-               f"current loop between the measured current and the torque).")
+               f"(candidates not tested: a torque or friction that depends on position or on the speed's "
+               f"history, the current loop between the measured current and the torque).")
     rep, per = r["repeatability_deg"], r["period_errors"]
     worst = max(rep, key=lambda k: r["fit_slice_rms_deg"][k] / rep[k])
     out.append(f"Under the study's replay the bench repeats itself to {rep['motor_angle_deg']:.2g} deg (motor angle) "
                f"and {rep['load_angle_deg']:.2g} deg (load angle) RMS from period to period, "
                f"{min(rep[k] / r['noise_floors_deg'][k] for k in rep):.0f}x the encoders' noise floor or more: no "
-               f"model driven by the measured current gets under that. On the fit slice diagnose's final model is "
+               f"model whose torques depend on the measured current and the motion alone gets under that (the "
+               f"periods differ in where the machine is, so a torque that depends on position counts here as the "
+               f"bench not repeating itself). On the fit slice diagnose's final model is "
                f"at {r['fit_slice_rms_deg'][worst] / rep[worst]:.2f}x it ({worst}); over all "
                f"{per[worst]['periods']} periods of record A at {per[worst]['rms_deg'] / rep[worst]:.2f}x, an error of "
                f"{per[worst]['rms_deg']:.2g} deg of which {per[worst]['repeating_deg']:.2g} deg repeats every period "
