@@ -761,9 +761,10 @@ def compare(plant: Plant | str | Path | Mapping, data: str | Path | pd.DataFrame
         Open loop: at every window seam also set the model's speeds to the measured
         ones (a local quartic fit of the measured angles; as ``--reset-speeds``), not
         only its angles, and start the model as the record's first sample has it
-        (angles, a shaft's twist, speeds), not at rest.  For a record whose low frequencies are not excited (a
-        multisine on a current-driven machine), where a window's speed error carried
-        into the next drifts the angles more than the dynamics move them.  Default off.
+        (angles, a shaft's twist, speeds), not at rest.  For a record whose low
+        frequencies are not excited (a multisine on a current-driven machine), where a
+        window's speed error carried into the next drifts the angles more than the
+        dynamics move them.  Default off.
 
     Returns
     -------
