@@ -14,7 +14,7 @@ from pathlib import Path
 
 import click
 
-from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, console, echo_json, interrupted,
+from .cli_common import (EXIT_FAILED, EXIT_HELP, Group, _fail, check, console, echo_json, interrupted,
                          is_interrupt, stdout)
 from .errors import GearbenchError
 
@@ -100,6 +100,7 @@ def run(experiment: Path, results_dir: Path, plot: bool, traces: bool, method: s
                                                     out_dir / "traces" / f"{rec.label}.csv"))
 
             records = run_experiment(exp, on_done=done, keep_traces=plot or traces, workers=workers)
+            check()  # a Ctrl-C a figure's finalizer swallowed: no table
     except (Exception, KeyboardInterrupt) as exc:
         if not is_interrupt(exc):
             raise

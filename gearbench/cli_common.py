@@ -27,7 +27,7 @@ import click
 from rich.console import Console
 
 from .errors import SolverError
-from .interrupts import is_interrupt  # noqa: F401 - the commands take it from here
+from .interrupts import check, is_interrupt, remembered  # noqa: F401 - the commands take them from here
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -118,7 +118,10 @@ class Group(click.Group):
 
     def invoke(self, ctx: click.Context):
         try:
-            return super().invoke(ctx)
+            with remembered():
+                out = super().invoke(ctx)
+                check()  # a Ctrl-C a finalizer swallowed: the command still ends as interrupted
+                return out
         except (Exception, KeyboardInterrupt) as exc:
             if not is_interrupt(exc):
                 raise
