@@ -420,10 +420,9 @@ class Replay:
             return
         n, sig = plant.gear.ratio, self.data.signals
         x[L.X_THM] = n * th[0] if name.startswith("motor") else n * (th[0] + x[L.X_DELTA]) + x[L.X_PHI]
-        if plant.resolved().shaft is not None and "motor_angle_deg" in sig and "load_angle_deg" in sig:
+        if plant.resolved().shaft is not None and name == "motor_angle_deg" and "load_angle_deg" in sig:
             theta_l = S.to_output_rad("load_angle_deg", sig["load_angle_deg"][0], plant)
-            x[L.X_PHI] = n * S.to_output_rad("motor_angle_deg", sig["motor_angle_deg"][0], plant) \
-                - n * (theta_l + x[L.X_DELTA])
+            x[L.X_PHI] = x[L.X_THM] - n * (theta_l + x[L.X_DELTA])
 
     def _reset_speeds(self, x: np.ndarray, a: int, plant: Plant) -> None:
         """Set the speed states at sample ``a`` to the measured ones (``reset_speeds``): each measured
