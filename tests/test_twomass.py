@@ -95,10 +95,11 @@ def _slope_weights(offsets, ts, degree):
     return np.linalg.pinv(np.vander(k, degree + 1))[-2] / ts
 
 
-def test_independent_noise_gives_the_repeatability_its_restart_predicts():
+def _restart_prediction(sigma):
     """rel(t) = e(t) - e(a) - s t with s = sum_k c_k e(a + k) the seam's slope (centred 11 samples, the
-    period's first 11 at its first seam): the variance at each sample from the restart's coefficients."""
-    sigma, ts, w, n, half, degree = 0.01, 1 / 2500, 250, 2500, 5, 4
+    period's first 11 at its first seam): the RMS over a period of the standard deviation at each sample,
+    from the restart's coefficients, for independent noise ``sigma`` at 2.5 kHz and 0.1 s windows."""
+    ts, w, n, half, degree = 1 / 2500, 250, 2500, 5, 4
     var = []
     for a in range(0, n, w):
         offsets = np.arange(0, 2 * half + 1) if a == 0 else np.arange(-half, half + 1)
@@ -109,12 +110,37 @@ def test_independent_noise_gives_the_repeatability_its_restart_predicts():
             coef[a] -= 1.0
             coef[a + offsets] -= c * j * ts
             var.append(np.sum(coef ** 2))
-    predicted = sigma * math.sqrt(np.mean(var))
+    return sigma * math.sqrt(np.mean(var))
+
+
+def test_independent_noise_gives_the_repeatability_its_restart_predicts():
+    sigma = 0.01
+    predicted = _restart_prediction(sigma)
     # 200 periods: the estimate's own spread is 3.4 % (over 6 seeds; 8 % with 40 periods), its first window,
     # whose one-sided slope takes in six times the noise of a centred one, weighing most
     got = T.repeatability(_periodic_record(periods=201, sigma=sigma, seed=4))
     for name in got:
         assert got[name] == pytest.approx(predicted, rel=0.12), (got, predicted)
+
+
+def test_the_period_spread_is_nothing_for_identical_periods_and_what_independent_noise_predicts():
+    """Identical periods spread by 0, free-running and in windows; independent noise ``sigma`` by
+    ``sigma sqrt(2 (w - 1) / w)`` (each sample less its window's first, which is itself exact), over
+    200 periods within 3 standard errors: the window's first sample, half the variance and common to the
+    window, is estimated from 199 degrees of freedom per window, so the spread's relative standard error
+    is about ``0.25 sqrt(2 / 199) / sqrt(windows)``.  The noise a study's restarts carry is that of the
+    restarts' coefficients."""
+    for window_s, w in ((T.PERIOD_S, 2500), (T.WINDOW_S, 250)):
+        exact = T.period_spread(_periodic_record(), window_s)
+        noisy = T.period_spread(_periodic_record(periods=201, sigma=0.01, seed=3), window_s)
+        rel = 3 * 0.25 * math.sqrt(2 / 199) / math.sqrt(2500 / w)
+        for name in exact:
+            assert exact[name] < 1e-12, exact
+            assert noisy[name] == pytest.approx(0.01 * math.sqrt(2 * (w - 1) / w), rel=rel), (window_s, noisy)
+    m = _periodic_record()
+    got = T.restart_noise(m, {"motor_angle_deg": 0.01, "load_angle_deg": 0.002}, seed=5)
+    assert got["motor_angle_deg"] == pytest.approx(_restart_prediction(0.01), rel=0.12), got
+    assert got["load_angle_deg"] == pytest.approx(_restart_prediction(0.002), rel=0.12), got
 
 
 def test_the_seam_speed_is_exact_on_a_quartic_and_passes_the_excited_band():
@@ -163,15 +189,20 @@ def test_a_cut_of_a_moving_twisted_record_replays_from_its_measured_state():
         assert rms < 0.02 * y.std() and first < 0.02 * y.std(), (name, rms, first, y.std())
 
 
-def test_the_real_bench_repeats_itself_far_above_its_encoders_noise(records):
-    """What no model of the record's input gets under: on both records the periods differ, under the
-    study's replay, by over a hundred times the encoders' noise floor."""
+def test_the_real_bench_repeats_itself_closer_than_a_straight_line_restart_says(records):
+    """Both real records: the periods spread, free-running and in the replay's windows, by over ten times the
+    encoders' noise, so no model of the input reaches that noise; and started at each window's angle they
+    spread by less than a third of the straight-line repeatability (0.08 against 0.49 deg on record A's
+    motor angle, 2026-12-07), which carries a seam's speed forward where the bench's coupling turns it back:
+    that repeatability is no floor."""
     for tag in ("A", "B"):
-        rep = T.repeatability(records[tag])
-        slice_ = T.cut(records[tag], T.FIT_SLICE_S, tag)
-        replay = T.replay_of(slice_)
-        for name, floor in rep.items():
-            assert floor > 100 * replay.noise_floor(name), (tag, name, floor, replay.noise_floor(name))
+        slice_ = T.replay_of(T.cut(records[tag], T.FIT_SLICE_S, tag))
+        noise = {name: float(slice_.noise_floor(name)) for name in ("motor_angle_deg", "load_angle_deg")}
+        floor, rep = T.bench_floor(records[tag], noise), T.repeatability(records[tag])
+        for name, f in floor.items():
+            assert min(f["free"], f["windows"]) > 10 * noise[name], (tag, name, f, noise)
+            assert f["windows"] < rep[name] / 3, (tag, name, f, rep)
+            assert f["replay"] < rep[name], (tag, name, f, rep)
 
 
 def test_missing_data_is_a_clear_error(tmp_path):
@@ -266,15 +297,18 @@ def test_the_diagnosis_finds_the_coupling(diagnosed, frf_a):
 
 
 @pytest.mark.slow
-def test_the_diagnosis_reaches_the_benchs_repeatability_on_its_slice(records, diagnosed):
-    """On the slice it was fitted to, diagnose's final model is within 1.2x (the practice cases'
-    criterion) of how closely the bench repeats itself under the same replay, on both angles (0.94x
-    and 0.88x on 2026-12-07; 1.30x and 1.16x before the slices started as measured).  Not the bench's
-    floor: a torque that depends on position goes under it (docs/twomass.md)."""
-    floor = T.repeatability(records["A"])
-    got = T.score(diagnosed["plant"], T.cut(records["A"], T.FIT_SLICE_S, "A slice"))["rms_deg"]
+@pytest.mark.xfail(strict=True, reason="the final model is 2.4x and 3.9x the floor under the replay on its "
+                   "slice (motor, load angle: 0.456 and 0.474 deg against 0.19 and 0.12; 2026-12-07), and "
+                   "off by 7.8 deg run free over a period where the periods spread by 0.16 (docs/twomass.md)")
+def test_the_diagnosis_reaches_the_benchs_floor_on_its_slice(records, diagnosed):
+    """On the slice it was fitted to, diagnose's final model within 1.2x (the practice cases' criterion)
+    of what no model of the input gets under in the study's replay (``bench_floor``), on both angles.
+    (It was within 1.2x of the straight-line repeatability, which is no floor.)"""
+    sl = T.cut(records["A"], T.FIT_SLICE_S, "A slice")
+    got = T.score(diagnosed["plant"], sl)
+    floor = T.bench_floor(records["A"], got["noise_floor_deg"])
     for name, f in floor.items():
-        assert got[name] <= 1.2 * f, (name, got[name], f)
+        assert got["rms_deg"][name] <= 1.2 * f["replay"], (name, got["rms_deg"][name], f)
 
 
 @pytest.mark.slow
