@@ -30,10 +30,11 @@ It writes ``results/twomass.md``, ``results/twomass.json`` and PNG figures under
    the resonance), everything refitted (``fit``).
 4. **The bench's own floor** (``bench_floor``, ``period_errors``): what no model driven by the
    record's input gets under, from above, from how closely the periods come to each other
-   (``period_spread``: free-running, and started at each window's angle) and what the replay's
-   restarts make of the encoders' noise (``restart_noise``); and diagnose's final model's error on
-   every period of record A under the study's replay, split into the part that repeats each period
-   and the part that does not, and run free from each period's start on both records.
+   (``period_spread``: free-running, and started at each window's angle) and what the replay costs
+   a model that is exactly right (``replay_cost``: the encoders' noise, the speeds its restarts read);
+   and diagnose's final model's error on every period of record A under the study's replay, split
+   into the part that repeats each period and the part that does not, and run free from each
+   period's start on both records.
 5. For each model: its error on the fit slice and on one period of record B (validation), its
    linear FRF (coupling, inertias and viscous terms; Coulomb friction and constant torques left
    out) and that FRF's anti-resonance and resonance beside the record's and the source's.
@@ -287,7 +288,7 @@ def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int 
     variance ``sigma^2`` times the sum of the squares of its coefficients on the samples (+1 on
     itself, -1 on the seam's, ``-t c_k`` on each sample the slope reads with weight ``c_k``, ``t``
     the time since the seam; added where two fall on one sample): the restart's angle and speed take
-    the noise in as they take it into the model (:func:`restart_noise`).
+    the noise in as they take it into the model.
 
     A model goes under it: the periods' speeds differ at a seam, and this carries the difference
     forward in a straight line over the window, where the bench's own coupling and friction turn it
@@ -339,29 +340,49 @@ def period_spread(m: Measurement, window_s: float = PERIOD_S, drop_periods: int 
     return out
 
 
-def restart_noise(m: Measurement, sigma_deg: dict[str, float], periods: int = 200, seed: int = 0) -> dict[str, float]:
-    """What the study's restarts alone make of independent noise ``sigma_deg`` (per angle, deg) on
-    ``m``'s time grid: :func:`repeatability` of ``periods`` periods of nothing but that noise (its
-    estimate spreads by about 3 % with 200).  The seams' speeds are slopes of noisy samples, and a
-    replay carries them over its windows as this does."""
-    n = int(round(PERIOD_S / m.sample_time_s))
-    t = np.arange((periods + 1) * n) * m.sample_time_s
+def replay_cost(plant: Plant, m: Measurement, noise_deg: dict[str, float], window_s: float = WINDOW_S,
+                drop_periods: int = 1, seed: int = 0) -> dict[str, float]:
+    """What the study's replay costs a model that is exactly right, per angle (deg).
+
+    On each period of ``m`` after the first ``drop_periods`` (cut as :func:`period_errors` cuts it),
+    ``plant`` run free from the period's first sample as measured makes a record of its own, moving as
+    the bench moves; independent noise ``noise_deg`` (per angle, deg) goes on its angles, and ``plant``
+    replays it in windows of ``window_s`` as the study replays the bench.  The cost is the RMS over the
+    periods of that replay's error against the noise-free run: each window starts at a speed read off
+    noisy samples by a polynomial (``seam_speed``; one-sided at a period's first sample), and the model's
+    own dynamics carry what it read."""
+    periods = len(m.time_s) // int(round(PERIOD_S / m.sample_time_s)) - drop_periods
     rng = np.random.default_rng(seed)
-    noise = {k: sigma_deg[k] * rng.standard_normal(t.size) for k in ("motor_angle_deg", "load_angle_deg")}
-    return repeatability(from_arrays(t, m.input_name, np.zeros_like(t), noise, source="noise"))
+    sq = {k: 0.0 for k in noise_deg}
+    count = 0
+    for p in range(drop_periods, drop_periods + periods):
+        part = cut(m, (p * PERIOD_S, (p + 1) * PERIOD_S), f"{m.source}, period {p + 1}")
+        clean = Replay(part, window_s=None, reset_speeds=True).run(plant)
+        noisy = {k: np.asarray(clean[k]) + s * rng.standard_normal(len(part.time_s)) for k, s in noise_deg.items()}
+        own = from_arrays(part.time_s, part.input_name, part.input, noisy, source=f"{plant.name}'s own run")
+        out = Replay(own, window_s=window_s, reset_speeds=True).run(plant)
+        for k in sq:
+            sq[k] += float(np.sum((np.asarray(out[k]) - np.asarray(clean[k])) ** 2))
+        count += len(part.time_s)
+    return {k: math.sqrt(v / count) for k, v in sq.items()}
 
 
-def bench_floor(m: Measurement, noise_deg: dict[str, float]) -> dict[str, dict[str, float]]:
-    """Per angle (deg), what no model of ``m``'s input gets under, from above: the periods' spread
-    free-running (``free``, for a model run free over a period) and started at each window's angle
-    (``windows``), what the study's restarts make of the encoders' noise ``noise_deg``
-    (``restart_noise``), and under the study's replay ``replay`` = sqrt(windows^2 + restart_noise^2):
-    each window started at the measured speed too, which a model given it explains, and the noise
-    that speed carries."""
-    free, windows = period_spread(m), period_spread(m, WINDOW_S)
-    noise = restart_noise(m, noise_deg)
-    return {k: {"encoders": noise_deg[k], "free": free[k], "windows": windows[k], "restart_noise": noise[k],
-                "replay": math.hypot(windows[k], noise[k])} for k in free}
+def bench_floor(m: Measurement, plant: Plant, noise_deg: dict[str, float]) -> dict[str, dict[str, float]]:
+    """Per angle (deg), what no model of ``m``'s input gets under, from above, for a model run free
+    over a period from its first sample (``free``) and under the study's replay (``replay``): the
+    periods' spread (:func:`period_spread`: free-running, ``spread_free``, and each window started at
+    its angle, ``spread_windows``) with what the replay costs ``plant`` were it exactly right
+    (:func:`replay_cost`, ``cost_free`` and ``cost_windows``: the encoders' noise ``noise_deg`` and the
+    speeds the restarts read), added as independent: ``free = hypot(spread_free, cost_free)``,
+    ``replay = hypot(spread_windows, cost_windows)``.  A window started at the measured speed explains
+    the speed's differences from period to period, so the spread started at the angle alone is at
+    least what a window's own disturbances do."""
+    spread_free, spread_windows = period_spread(m), period_spread(m, WINDOW_S)
+    cost_free, cost_windows = replay_cost(plant, m, noise_deg, PERIOD_S), replay_cost(plant, m, noise_deg)
+    return {k: {"encoders": noise_deg[k], "spread_free": spread_free[k], "spread_windows": spread_windows[k],
+                "cost_free": cost_free[k], "cost_windows": cost_windows[k],
+                "free": math.hypot(spread_free[k], cost_free[k]),
+                "replay": math.hypot(spread_windows[k], cost_windows[k])} for k in noise_deg}
 
 
 def period_errors(plant: Plant, m: Measurement, drop_periods: int = 1,
@@ -525,21 +546,24 @@ def markdown(r: dict) -> str:
            "## The bench's own floor", "",
            f"The multisine is the same every period. Each period after the first ({r['period_errors']['motor_angle_deg']['periods']} "
            f"on record A), started at its own measured angle: how far the periods spread free-running over the whole "
-           f"period, and in the replay's {WINDOW_S:g} s windows, each window started at its first sample's angle "
-           f"(`period_spread`); what the replay's restarts make of the encoders' noise (`restart_noise`: a seam's speed "
-           f"is the slope of noisy samples); and, from above, what no model of the input gets under in the study's "
-           f"replay, which also starts each window at the measured speed: sqrt(windows^2 + restart noise^2) "
-           f"(`bench_floor`). A period is the bench's response to its input and its start, which a model explains, "
-           f"plus what none does; where the two are independent the spread is at least the second. The last column "
-           f"(`repeatability`, the floor this study used until it was found to be none) carries each seam's speed forward in a "
-           f"straight line, where the bench's coupling and friction turn it back: it is no floor.", "",
-           "| angle | record | encoders' noise | spread, free-running | spread, windows | restart noise "
-           "| floor under the replay | straight-line repeatability (not a floor) |", "|---|---|---|---|---|---|---|---|"]
+           f"period, and in the replay's {WINDOW_S:g} s windows each started at its first sample's angle "
+           f"(`period_spread`). A period is the bench's response to its input and its start, which a model explains, "
+           f"plus what none does; where the two are independent the spread is at least the second. Beside it, what "
+           f"the replay costs diagnose's final model were it exactly right (`replay_cost`: its own run from each "
+           f"period's first sample, the encoders' noise added, replayed as the study replays the bench; each window "
+           f"starts at a speed read off noisy samples). The floor, from above (`bench_floor`), adds the two: for a "
+           f"model run free over a period, and under the study's replay. The last column (`repeatability`, the floor "
+           f"this study used until it was found to be none) carries each seam's speed forward in a straight line, "
+           f"where the bench's coupling and friction turn it back.", "",
+           "| angle | record | encoders' noise | spread, free-running | spread, windows | replay's cost, free-running "
+           "| replay's cost, windows | floor, free-running | floor under the replay | straight-line repeatability (not a floor) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for name in r["period_errors"]:
         for tag, rep in (("A", r["repeatability_deg"]), ("B", r["repeatability_B_deg"])):
             f = r["bench_floor"][tag][name]
-            md.append(f"| {name} | {tag} | {f['encoders']:.2g} | {f['free']:.3g} | {f['windows']:.3g} | "
-                      f"{f['restart_noise']:.3g} | **{f['replay']:.3g}** | {rep[name]:.3g} |")
+            md.append(f"| {name} | {tag} | {f['encoders']:.2g} | {f['spread_free']:.3g} | {f['spread_windows']:.3g} | "
+                      f"{f['cost_free']:.3g} | {f['cost_windows']:.3g} | **{f['free']:.3g}** | **{f['replay']:.3g}** | "
+                      f"{rep[name]:.3g} |")
     md += ["", "Diagnose's final model (deg): under the study's replay on its fit slice, on every period of record A "
            "(`period_errors`: RMS / the part that repeats every period, what a better model could still explain / "
            "the part that does not) and on record B's validation slice; and run free from each period's first "
@@ -598,17 +622,19 @@ def findings(r: dict) -> list[str]:
     worst = max(fa, key=lambda k: r["fit_slice_rms_deg"][k] / fa[k]["replay"])
     out.append(f"Under the study's replay no model of the record's input gets under about {fa['motor_angle_deg']['replay']:.2g} "
                f"deg on the motor angle and {fa['load_angle_deg']['replay']:.2g} deg on the load angle of record A "
-               f"(from above: the periods started at each window's angle spread by {fa[worst]['windows']:.2g} deg, and the "
-               f"seams' speeds carry the encoders' noise as {fa[worst]['restart_noise']:.2g} deg; {worst}). Diagnose's "
-               f"final model is at {r['fit_slice_rms_deg'][worst] / fa[worst]['replay']:.1f}x that on its fit slice, "
-               f"{per[worst]['rms_deg'] / fa[worst]['replay']:.1f}x over all {per[worst]['periods']} periods of record A "
-               f"({per[worst]['repeating_deg']:.2g} deg of its error repeats every period: what a better model could "
-               f"still explain) and {r['validation_rms_deg'][worst] / fb[worst]['replay']:.1f}x record B's on its "
-               f"validation slice: it is not at the bench's floor.")
+               f"(from above: the periods started at each window's angle spread by {fa[worst]['spread_windows']:.2g} deg, "
+               f"and the replay costs the final model, were it exactly right, {fa[worst]['cost_windows']:.2g} deg; "
+               f"{worst}). Diagnose's final model is at {r['fit_slice_rms_deg'][worst] / fa[worst]['replay']:.1f}x that "
+               f"on its fit slice, {per[worst]['rms_deg'] / fa[worst]['replay']:.1f}x over all {per[worst]['periods']} "
+               f"periods of record A ({per[worst]['repeating_deg']:.2g} deg of its error repeats every period: what a "
+               f"better model could still explain) and {r['validation_rms_deg'][worst] / fb[worst]['replay']:.1f}x "
+               f"record B's on its validation slice: it is not at the bench's floor.")
     out.append(f"Run free from where each period starts, the final model is off by {free['A'][worst]['rms_deg']:.2g} deg "
-               f"on record A and {free['B'][worst]['rms_deg']:.2g} deg on record B, where the bench's own periods spread "
-               f"by {fa[worst]['free']:.2g} and {fb[worst]['free']:.2g} deg: the bench repeats its slow motion closely, "
-               f"and the replay's {WINDOW_S:g} s windows hide what the model lacks of it. The straight-line "
+               f"on record A ({free['A'][worst]['rms_deg'] / fa[worst]['free']:.1f}x the floor for such a run, "
+               f"{fa[worst]['free']:.2g} deg) and {free['B'][worst]['rms_deg']:.2g} deg on record B "
+               f"({free['B'][worst]['rms_deg'] / fb[worst]['free']:.1f}x {fb[worst]['free']:.2g} deg); the bench's own "
+               f"periods spread by {fa[worst]['spread_free']:.2g} and {fb[worst]['spread_free']:.2g} deg, the rest of "
+               f"those floors being the start's speed, read off a period's first samples. The straight-line "
                f"repeatability ({r['repeatability_deg'][worst]:.2g} deg) is {r['repeatability_deg'][worst] / fa[worst]['replay']:.1f}x "
                f"the floor under the replay, so being within it said little.")
     better = r["stated"]["error_deg"] < d["rungs"][-1]["error_deg"]
@@ -639,7 +665,7 @@ def run_study(data_dir=None, workers: int | None = 1) -> dict:
     floor, floor_b = repeatability(recs["A"]), repeatability(recs["B"])
     errors = period_errors(diag["plant"], recs["A"])
     on_slice, on_b = score(diag["plant"], fit_data), score(diag["plant"], val_data)
-    floors = {tag: bench_floor(recs[tag], sc["noise_floor_deg"]) for tag, sc in (("A", on_slice), ("B", on_b))}
+    floors = {tag: bench_floor(recs[tag], diag["plant"], sc["noise_floor_deg"]) for tag, sc in (("A", on_slice), ("B", on_b))}
     free = {tag: period_errors(diag["plant"], recs[tag], window_s=PERIOD_S) for tag in ("A", "B")}
     stated = stated_coupling(diag["plant"], fit_data, frf)
     stated["validation_error_deg"] = score(stated["plant"], val_data)["error_deg"]

@@ -128,8 +128,7 @@ def test_the_period_spread_is_nothing_for_identical_periods_and_what_independent
     ``sigma sqrt(2 (w - 1) / w)`` (each sample less its window's first, which is itself exact), over
     200 periods within 3 standard errors: the window's first sample, half the variance and common to the
     window, is estimated from 199 degrees of freedom per window, so the spread's relative standard error
-    is about ``0.25 sqrt(2 / 199) / sqrt(windows)``.  The noise a study's restarts carry is that of the
-    restarts' coefficients."""
+    is about ``0.25 sqrt(2 / 199) / sqrt(windows)``."""
     for window_s, w in ((T.PERIOD_S, 2500), (T.WINDOW_S, 250)):
         exact = T.period_spread(_periodic_record(), window_s)
         noisy = T.period_spread(_periodic_record(periods=201, sigma=0.01, seed=3), window_s)
@@ -137,10 +136,21 @@ def test_the_period_spread_is_nothing_for_identical_periods_and_what_independent
         for name in exact:
             assert exact[name] < 1e-12, exact
             assert noisy[name] == pytest.approx(0.01 * math.sqrt(2 * (w - 1) / w), rel=rel), (window_s, noisy)
-    m = _periodic_record()
-    got = T.restart_noise(m, {"motor_angle_deg": 0.01, "load_angle_deg": 0.002}, seed=5)
-    assert got["motor_angle_deg"] == pytest.approx(_restart_prediction(0.01), rel=0.12), got
-    assert got["load_angle_deg"] == pytest.approx(_restart_prediction(0.002), rel=0.12), got
+
+
+def test_the_replay_costs_an_exact_model_nothing_without_noise_and_in_proportion_to_it():
+    """A free mass (the bare plant) replayed on its own run: with no noise, on its 13 Hz motion of 0.86 deg
+    amplitude, within 1e-3 deg (3.4e-4 measured: the seams' slopes of a quartic and the solver's
+    tolerance); with noise, in proportion to it (the seams' speeds are linear in the samples, and the
+    reset test's threshold scales with the noise it reads), and far above the noise itself (the
+    speeds read over 11 samples carried over 0.1 s windows)."""
+    m = _periodic_record(periods=31)
+    cost = {s: T.replay_cost(T.bare_plant(), m, {"motor_angle_deg": s, "load_angle_deg": s}, seed=5)
+            for s in (0.0, 0.005, 0.01)}
+    for name in cost[0.0]:
+        assert cost[0.0][name] < 1e-3, cost
+        assert cost[0.01][name] == pytest.approx(2 * cost[0.005][name], rel=0.05), cost
+        assert cost[0.01][name] > 10 * 0.01, cost
 
 
 def test_the_seam_speed_is_exact_on_a_quartic_and_passes_the_excited_band():
@@ -197,12 +207,12 @@ def test_the_real_bench_repeats_itself_closer_than_a_straight_line_restart_says(
     that repeatability is no floor."""
     for tag in ("A", "B"):
         slice_ = T.replay_of(T.cut(records[tag], T.FIT_SLICE_S, tag))
-        noise = {name: float(slice_.noise_floor(name)) for name in ("motor_angle_deg", "load_angle_deg")}
-        floor, rep = T.bench_floor(records[tag], noise), T.repeatability(records[tag])
-        for name, f in floor.items():
-            assert min(f["free"], f["windows"]) > 10 * noise[name], (tag, name, f, noise)
-            assert f["windows"] < rep[name] / 3, (tag, name, f, rep)
-            assert f["replay"] < rep[name], (tag, name, f, rep)
+        spread_free, spread = T.period_spread(records[tag]), T.period_spread(records[tag], T.WINDOW_S)
+        rep = T.repeatability(records[tag])
+        for name in rep:
+            noise = slice_.noise_floor(name)
+            assert min(spread_free[name], spread[name]) > 10 * noise, (tag, name, spread_free, spread, noise)
+            assert spread[name] < rep[name] / 3, (tag, name, spread, rep)
 
 
 def test_missing_data_is_a_clear_error(tmp_path):
@@ -297,16 +307,16 @@ def test_the_diagnosis_finds_the_coupling(diagnosed, frf_a):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the final model is 2.4x and 3.9x the floor under the replay on its "
-                   "slice (motor, load angle: 0.456 and 0.474 deg against 0.19 and 0.12; 2026-12-07), and "
-                   "off by 7.8 deg run free over a period where the periods spread by 0.16 (docs/twomass.md)")
+@pytest.mark.xfail(strict=True, reason="the final model is 3.0x and 3.1x the floor under the replay on its "
+                   "slice (motor, load angle: 0.456 and 0.474 deg against 0.152 and 0.153; 2026-12-07), and 20x "
+                   "it run free over a period (7.8 deg against 0.39; docs/twomass.md)")
 def test_the_diagnosis_reaches_the_benchs_floor_on_its_slice(records, diagnosed):
     """On the slice it was fitted to, diagnose's final model within 1.2x (the practice cases' criterion)
     of what no model of the input gets under in the study's replay (``bench_floor``), on both angles.
     (It was within 1.2x of the straight-line repeatability, which is no floor.)"""
     sl = T.cut(records["A"], T.FIT_SLICE_S, "A slice")
     got = T.score(diagnosed["plant"], sl)
-    floor = T.bench_floor(records["A"], got["noise_floor_deg"])
+    floor = T.bench_floor(records["A"], diagnosed["plant"], got["noise_floor_deg"])
     for name, f in floor.items():
         assert got["rms_deg"][name] <= 1.2 * f["replay"], (name, got["rms_deg"][name], f)
 
