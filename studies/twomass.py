@@ -1,4 +1,4 @@
-"""The two-mass study: a real motor bench with a flexible coupling, from the bare plant to its noise floor.
+"""The two-mass study: a real motor bench with a flexible coupling, from the bare plant, against the bench's floor.
 
 Data: the FdiTools two-mass bench (HoriFujimotoLab/FdiTools, MIT; T. Beauduin and W. Ohnishi),
 two multisine records at 2.5 kHz in ``data/twomass/`` (provenance, licence and citation in its
