@@ -280,7 +280,8 @@ def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int 
 
     Each period after the first ``drop_periods`` is cut as
     :func:`period_errors` cuts it and into the replay's windows, and each window restarted as
-    ``Replay(reset_speeds=True)`` restarts the model: its angle less the angle at the window's
+    ``Replay(reset_speeds=True)`` restarts the model (which moves the angles only where the model's
+    drift is significant, the speeds at every seam): its angle less the angle at the window's
     first sample ``a`` and the speed there (``seam_speed`` of the period's samples: one-sided at its
     first) times the time since ``a``.  The floor is the RMS over a period's samples of their
     standard deviation over the periods (ddof 1).  Periods that differ only in their angle and

@@ -95,11 +95,10 @@ def _slope_weights(offsets, ts, degree):
     return np.linalg.pinv(np.vander(k, degree + 1))[-2] / ts
 
 
-def _restart_prediction(sigma):
+def test_independent_noise_gives_the_repeatability_its_restart_predicts():
     """rel(t) = e(t) - e(a) - s t with s = sum_k c_k e(a + k) the seam's slope (centred 11 samples, the
-    period's first 11 at its first seam): the RMS over a period of the standard deviation at each sample,
-    from the restart's coefficients, for independent noise ``sigma`` at 2.5 kHz and 0.1 s windows."""
-    ts, w, n, half, degree = 1 / 2500, 250, 2500, 5, 4
+    period's first 11 at its first seam): the variance at each sample from the restart's coefficients."""
+    sigma, ts, w, n, half, degree = 0.01, 1 / 2500, 250, 2500, 5, 4
     var = []
     for a in range(0, n, w):
         offsets = np.arange(0, 2 * half + 1) if a == 0 else np.arange(-half, half + 1)
@@ -110,12 +109,7 @@ def _restart_prediction(sigma):
             coef[a] -= 1.0
             coef[a + offsets] -= c * j * ts
             var.append(np.sum(coef ** 2))
-    return sigma * math.sqrt(np.mean(var))
-
-
-def test_independent_noise_gives_the_repeatability_its_restart_predicts():
-    sigma = 0.01
-    predicted = _restart_prediction(sigma)
+    predicted = sigma * math.sqrt(np.mean(var))
     # 200 periods: the estimate's own spread is 3.4 % (over 6 seeds; 8 % with 40 periods), its first window,
     # whose one-sided slope takes in six times the noise of a centred one, weighing most
     got = T.repeatability(_periodic_record(periods=201, sigma=sigma, seed=4))
