@@ -283,7 +283,7 @@ def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int 
     ``Replay(reset_speeds=True)`` restarts the model (which moves the angles only where the model's
     drift is significant, the speeds at every seam): its angle less the angle at the window's
     first sample ``a`` and the speed there (``seam_speed`` of the period's samples: one-sided at its
-    first) times the time since ``a``.  The floor is the RMS over a period's samples of their
+    first) times the time since ``a``.  The measure is the RMS over a period's samples of their
     standard deviation over the periods (ddof 1).  Periods that differ only in their angle and
     speed at each seam give 0; independent noise ``sigma`` on the samples gives at each sample the
     variance ``sigma^2`` times the sum of the squares of its coefficients on the samples (+1 on
@@ -321,7 +321,7 @@ def period_spread(m: Measurement, window_s: float = PERIOD_S, drop_periods: int 
     samples of their standard deviation over the periods (ddof 1).  ``window_s`` of a whole period
     (the default) is the bench free-running from where each period starts.
 
-    A floor from above.  A period is the bench's response to its input and to where it starts, which
+    It bounds the floor from above.  A period is the bench's response to its input and to where it starts, which
     a model driven by the measured current and started as measured explains, plus what no model of
     the input explains (disturbances, the encoders' noise).  Where the two are independent their
     variances add, so the spread is at least the second's.  Identical periods give 0, independent
