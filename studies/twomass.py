@@ -47,6 +47,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
@@ -274,6 +275,23 @@ def score(plant: Plant, m: Measurement) -> dict:
 
 
 # ----------------------------------------------------------------------------- the bench's own floor
+def _period_count(m: Measurement, drop_periods: int) -> tuple[int, int]:
+    """The samples in a period and the whole periods of ``m`` after its first ``drop_periods``
+    (at least two: a spread over the periods needs them)."""
+    n = int(round(PERIOD_S / m.sample_time_s))
+    periods = len(m.time_s) // n - drop_periods
+    if periods < 2:
+        raise ValueError(f"{m.source}: needs at least {drop_periods + 2} periods of {PERIOD_S} s")
+    return n, periods
+
+
+def _cut_periods(m: Measurement, drop_periods: int) -> Iterator[Measurement]:
+    """Each period of ``m`` after its first ``drop_periods``, cut as the fit slice is (:func:`cut`)."""
+    _, periods = _period_count(m, drop_periods)
+    for p in range(drop_periods, drop_periods + periods):
+        yield cut(m, (p * PERIOD_S, (p + 1) * PERIOD_S), f"{m.source}, period {p + 1}")
+
+
 def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int = 1) -> dict[str, float]:
     """How closely the bench's periods come to each other when each window carries its first
     sample's angle and speed forward in a straight line, per angle (deg).  Not a floor (below).
@@ -295,11 +313,8 @@ def repeatability(m: Measurement, window_s: float = WINDOW_S, drop_periods: int 
     forward in a straight line over the window, where the bench's own coupling and friction turn it
     back.  On record A it is 0.49 deg, where the same periods started at each window's angle alone
     spread by 0.08 deg (:func:`period_spread`)."""
-    ts = m.sample_time_s
-    n, w = int(round(PERIOD_S / ts)), int(round(window_s / ts))
-    periods = len(m.time_s) // n - drop_periods
-    if periods < 2:
-        raise ValueError(f"{m.source}: needs at least {drop_periods + 2} periods of {PERIOD_S} s")
+    n, periods = _period_count(m, drop_periods)
+    w = int(round(window_s / m.sample_time_s))
     t = np.asarray(m.time_s, dtype=float)[:n] - float(m.time_s[0])
     out = {}
     for name in ("motor_angle_deg", "load_angle_deg"):
@@ -321,16 +336,13 @@ def period_spread(m: Measurement, window_s: float = PERIOD_S, drop_periods: int 
     samples of their standard deviation over the periods (ddof 1).  ``window_s`` of a whole period
     (the default) is the bench free-running from where each period starts.
 
-    It bounds the floor from above.  A period is the bench's response to its input and to where it starts, which
-    a model driven by the measured current and started as measured explains, plus what no model of
-    the input explains (disturbances, the encoders' noise).  Where the two are independent their
+    It bounds the floor from above.  A period is the bench's response to its input and to where it
+    starts, which a model driven by the measured current and started as measured explains, plus what
+    no model of the input explains (disturbances, the encoders' noise).  Where the two are independent their
     variances add, so the spread is at least the second's.  Identical periods give 0, independent
     noise ``sigma`` on every sample ``sigma sqrt(2 (w - 1) / w)`` for windows of ``w`` samples."""
-    ts = m.sample_time_s
-    n, w = int(round(PERIOD_S / ts)), int(round(window_s / ts))
-    periods = len(m.time_s) // n - drop_periods
-    if periods < 2:
-        raise ValueError(f"{m.source}: needs at least {drop_periods + 2} periods of {PERIOD_S} s")
+    n, periods = _period_count(m, drop_periods)
+    w = int(round(window_s / m.sample_time_s))
     out = {}
     for name in ("motor_angle_deg", "load_angle_deg"):
         y = np.asarray(m.signals[name], dtype=float)[drop_periods * n:(drop_periods + periods) * n]
@@ -352,12 +364,10 @@ def replay_cost(plant: Plant, m: Measurement, noise_deg: dict[str, float], windo
     periods of that replay's error against the noise-free run: each window starts at a speed read off
     noisy samples by a polynomial (``seam_speed``; one-sided at a period's first sample), and the model's
     own dynamics carry what it read."""
-    periods = len(m.time_s) // int(round(PERIOD_S / m.sample_time_s)) - drop_periods
     rng = np.random.default_rng(seed)
     sq = {k: 0.0 for k in noise_deg}
     count = 0
-    for p in range(drop_periods, drop_periods + periods):
-        part = cut(m, (p * PERIOD_S, (p + 1) * PERIOD_S), f"{m.source}, period {p + 1}")
+    for part in _cut_periods(m, drop_periods):
         clean = Replay(part, window_s=None, reset_speeds=True).run(plant)
         noisy = {k: np.asarray(clean[k]) + s * rng.standard_normal(len(part.time_s)) for k, s in noise_deg.items()}
         own = from_arrays(part.time_s, part.input_name, part.input, noisy, source=f"{plant.name}'s own run")
@@ -394,11 +404,8 @@ def period_errors(plant: Plant, m: Measurement, drop_periods: int = 1,
     repeats every period (the RMS of the error's mean over the periods, its own share of the
     non-repeating part taken out: what a better model could still explain) and the part that does
     not (the RMS of its standard deviation over the periods, ddof 1)."""
-    n = int(round(PERIOD_S / m.sample_time_s))
-    periods = len(m.time_s) // n - drop_periods
     errors = {}
-    for p in range(drop_periods, drop_periods + periods):
-        part = cut(m, (p * PERIOD_S, (p + 1) * PERIOD_S), f"{m.source}, period {p + 1}")
+    for part in _cut_periods(m, drop_periods):
         sim = Replay(part, window_s=window_s, reset_speeds=True).run(plant)
         for name in ("motor_angle_deg", "load_angle_deg"):
             errors.setdefault(name, []).append(np.asarray(part.signals[name]) - sim[name])
