@@ -414,3 +414,37 @@ def test_a_calibration_fits_its_scan_points_only_when_the_fit_from_the_models_va
     else:  # the worse point's fit was running when it was dropped
         assert "model" in ran and "point 2" in ran and scanned == [len(frees)]
         assert timing.stages["calibration"].replays == 1
+
+
+@pytest.mark.parametrize("leader_rms, leader_k, tried", [(0.95, 1, False), (1.05, 1, True), (0.95, 3, True)])
+def test_no_calibration_is_tried_out_of_the_best_candidates_reach(monkeypatch, leader_rms, leader_k, tried):
+    """``ladder._calibration``: where the rung's best candidate pays and is at the noise floors
+    (weighted RMS at most ``refit.AT_FLOORS``) with no more fitted values than the calibration has,
+    no calibration could rank above it: it is not tried, and each value's message says why
+    (``calibration.Plan.report``).  Above the floors, or with more values than the calibration's
+    two, it is tried."""
+    from types import SimpleNamespace
+    from gearbench.identify import ladder
+    from gearbench.identify.candidates import Candidate, Tried
+    from gearbench.identify.fit import Free, FitResult
+    from gearbench.identify.policy import Policy
+    plant = load_plant(RIG)
+    frees = [Free.plant(plant, "motor.resistance"), Free.plant(plant, "load.inertia")]
+    n = 1000
+    model = FitResult(plant, {}, 1.0, 100.0 * n, n, 0, True, "", 1)
+    best = Tried(Candidate("coulomb_friction", {"location": "load"}),
+                 FitResult(plant, {}, 1.0, leader_rms ** 2 * n, n, leader_k, True, "", 1))
+    calls = []
+    monkeypatch.setattr(ladder, "calibrate", lambda ctx, res, free_plant, added: calls.append(res) or None)
+    plan = calibration.Plan(frees, [], {f.name: 1.0 for f in frees}, {f.name: 10.0 for f in frees})
+    ctx = SimpleNamespace(replay=None, scorer=SimpleNamespace(correlation_time=lambda res: 1.0), policy=Policy(),
+                          plan=plan, tracker=SimpleNamespace(stage=lambda *a: None))
+    state, calibrated = ladder._calibration(ctx, ladder.State(model), best, (), 1)
+    assert calibrated is None and bool(calls) == tried
+    message = plan.report(plant, {}, False, state.uncalibrated)["motor.resistance"]["message"]
+    if tried:
+        assert state.uncalibrated == "" and "did not pay" in message
+    else:
+        assert message == ("kept: coulomb_friction (load) explains the record down to its noise floors with 1 "
+                           "fitted value, and a calibration of 2 could not rank above it by the criterion, so it "
+                           "was not tried")

@@ -527,29 +527,25 @@ def test_a_stopped_replay_is_the_whole_ones_first_samples(monkeypatch):
     assert not replay.run(plant, stop=lambda sim: True).stopped
 
 
-def test_a_screen_fits_second_starts_only_for_the_candidates_its_first_starts_rank_best(monkeypatch):
-    """``ladder.screen``: each candidate is fitted from its scan's best start; only the
-    ``Policy.second_top`` best of those fits (and none at the noise floors) are fitted from their
-    second starts too, each keeping the better of its two fits, and the screen is ranked again.  A
-    candidate ranked below them keeps its first fit, however good its second start would be."""
+def _screen_with_fits(monkeypatch, rss: dict, only: tuple, n: int = 1000, model_effects=()):
+    """``ladder.screen`` on the rig (with ``model_effects`` added before the rung: refitted jointly
+    with the best) with every candidate's fit from its (first, second) start, and its joint refit,
+    faked to weighted RSS ``rss[label]`` (the floors are an RSS of ``n``), ``Policy(second_top=3)``:
+    the ranked candidates, the (label, start or "joint") of every fit made, and the stages' fit
+    counts."""
     from types import SimpleNamespace
     from gearbench.identify.executor import Executor
-    rig = _rig()
-    replay = Replay(record(rig, [], duration=1.0))
-    n = 1000
-    # weighted RSS of each candidate's fit from its (first, second) start; the floors are an RSS of n
-    rss = {"coulomb_friction (load)": (0.9 * n, 0.1 * n), "coulomb_friction (motor)": (50 * n, 40 * n),
-           "viscous_friction (load)": (60 * n, 2 * n), "viscous_friction (motor)": (70 * n, 80 * n),
-           "bias_torque (load)": (90 * n, 0.5 * n), "load_spring": (95 * n, 0.2 * n)}
+    rig = _rig().with_effects(*model_effects)
+    replay = Replay(record(_rig(), [], duration=1.0))
     fitted = []
 
     def fake_fit(replay, plant, frees, scorer, start=None, **kw):
         label = Candidate(plant.effects[-1].name, {k: v for k, v in plant.effects[-1].values.items()
                                                    if k in ("location", "signal")}).label()
-        which = int(start[0])
+        which = "joint" if start is None else int(start[0])
         fitted.append((label, which))
         replay.meter.fitted()  # as fit counts itself into the cost of the job it runs in
-        return FitResult(plant, {}, 1.0, rss[label][which], n, len(frees), True, "", 1)
+        return FitResult(plant, {}, 1.0, rss[label][2 if start is None else which], n, len(frees), True, "", 1)
 
     monkeypatch.setattr(candidates_module, "fit", fake_fit)
     monkeypatch.setattr(candidates_module.search, "starts",
@@ -557,22 +553,88 @@ def test_a_screen_fits_second_starts_only_for_the_candidates_its_first_starts_ra
     tracker = Tracker(None)
     with Executor(1) as workers:
         ctx = SimpleNamespace(replay=replay, scorer=Scorer(replay), policy=Policy(second_top=3), workers=workers,
-                              tracker=tracker,
-                              only=("coulomb_friction", "viscous_friction", "bias_torque", "load_spring"), also=(),
-                              free_plant=(), added=lambda plant: ())
+                              tracker=tracker, only=only, also=(), free_plant=(),
+                              added=lambda plant: tuple(range(len(model_effects))))
         tried = ladder.screen(ctx, SimpleNamespace(plant=rig, rss=100.0 * n), (), 1)
-    firsts = {label for label, which in fitted if which == 0}
-    assert firsts == set(rss)
-    # ranked by their first starts: coulomb (load) at the floors, coulomb (motor), viscous (load), viscous (motor)
-    assert sorted(label for label, which in fitted if which == 1) == ["coulomb_friction (motor)",
+    assert {label for label, which in fitted if which == 0} == set(rss)
+    return tried, fitted, {s["stage"]: s["fits"] for s in tracker.timing.report()["stages"]}
+
+
+def test_a_screen_fits_second_starts_only_for_the_candidates_its_first_starts_rank_best(monkeypatch):
+    """``ladder.screen``: each candidate is fitted from its scan's best start; only the
+    ``Policy.second_top`` best of those fits are fitted from their second starts too, each keeping
+    the better of its two fits, and the screen is ranked again.  A candidate ranked below them
+    keeps its first fit, however good its second start would be."""
+    n = 1000
+    rss = {"coulomb_friction (load)": (1.5 * n, 0.1 * n), "coulomb_friction (motor)": (50 * n, 40 * n),
+           "viscous_friction (load)": (60 * n, 2 * n), "viscous_friction (motor)": (70 * n, 80 * n),
+           "bias_torque (load)": (90 * n, 0.5 * n), "load_spring": (95 * n, 0.2 * n)}
+    tried, fitted, costs = _screen_with_fits(monkeypatch, rss, ("coulomb_friction", "viscous_friction",
+                                                                "bias_torque", "load_spring"), n)
+    # ranked by their first starts: coulomb (load), coulomb (motor), viscous (load), viscous (motor)
+    assert sorted(label for label, which in fitted if which == 1) == ["coulomb_friction (load)",
+                                                                      "coulomb_friction (motor)",
                                                                       "viscous_friction (load)"]
     assert [t.label() for t in tried] == ["coulomb_friction (load)", "viscous_friction (load)",
                                           "coulomb_friction (motor)", "viscous_friction (motor)",
                                           "bias_torque (load)", "load_spring"]
-    assert [t.result.rss / n for t in tried] == [0.9, 2, 40, 70, 90, 95]
+    assert [t.result.rss / n for t in tried] == [0.1, 2, 40, 70, 90, 95]
     assert all(not t.later for t in tried[:3]) and all(len(t.later) == 1 for t in tried[3:])
-    costs = {s["stage"]: s["fits"] for s in tracker.timing.report()["stages"]}
-    assert costs == {"candidates": 6, "second starts": 2}, costs
+    assert costs == {"candidates": 6, "second starts": 3}, costs
+
+
+def test_a_screen_fits_no_second_start_out_of_its_leaders_reach(monkeypatch):
+    """A leader at the noise floors (its first fit, which then leaves no second start) puts the
+    second starts of candidates with as many fitted values or more out of reach
+    (``refit.out_of_reach``): they are not fitted, even one that would have ended lower (fitting
+    the noise).  One with fewer values is, and wins where its BIC is lower."""
+    n = 1000
+    rss = {"load_spring": (0.9 * n, 0.05 * n),  # 2 values, at the floors
+           "stribeck_friction (load)": (3 * n, 0.5 * n),  # 3 values: out of reach
+           "coulomb_friction (load)": (5 * n, 0.4 * n),  # 1 value: within reach
+           "coulomb_friction (motor)": (50 * n, 40 * n), "stribeck_friction (motor)": (60 * n, 0.3 * n)}
+    tried, fitted, costs = _screen_with_fits(monkeypatch, rss, ("coulomb_friction", "stribeck_friction",
+                                                                "load_spring"), n)
+    assert [label for label, which in fitted if which == 1] == ["coulomb_friction (load)"]
+    assert [t.label() for t in tried][:3] == ["coulomb_friction (load)", "load_spring", "stribeck_friction (load)"]
+    assert [t.result.rss / n for t in tried][:3] == [0.4, 0.9, 3]
+    assert costs == {"candidates": 5, "second starts": 1}, costs
+    # the same screen with the leader just above the floors fits every second start of the best three
+    rss["load_spring"] = (1.01 * n, 0.05 * n)
+    _, fitted, costs = _screen_with_fits(monkeypatch, rss, ("coulomb_friction", "stribeck_friction",
+                                                            "load_spring"), n)
+    assert sorted(label for label, which in fitted if which == 1) == ["coulomb_friction (load)", "load_spring",
+                                                                      "stribeck_friction (load)"]
+    assert costs == {"candidates": 5, "second starts": 3}, costs
+
+
+def _pairs_with_fits(monkeypatch, jobs, names, policy, fit_of, n: int = 1000):
+    """``ladder.fit_pairs`` of ``jobs`` (their pairs ``names``) with each pair's fit from its (first,
+    second) start faked: ``fit_of(pair, start, frees)`` gives its weighted RSS in ``n`` and its
+    values fitted.  The pairs, the (pair's index, start) of every fit, and the counts of the second
+    starts' stages."""
+    from contextlib import contextmanager
+    from gearbench.identify.executor import Executor
+    fitted, asked = [], []
+
+    def fake_fit(replay, plant, frees, scorer, start=None, **kw):
+        pair = frozenset(e.name for e in plant.effects[-2:])
+        which = int(start[0])
+        fitted.append((names.index(pair), which))
+        rss, k = fit_of(pair, which, frees)
+        return FitResult(plant, {}, 1.0, rss * n, n, k, True, "", 1)
+
+    monkeypatch.setattr(candidates_module, "fit", fake_fit)
+    monkeypatch.setattr(candidates_module.search, "starts",
+                        lambda replay, scorer, plant, frees, *a, **k: ([np.zeros(len(frees)), np.ones(len(frees))], 2))
+
+    @contextmanager
+    def again(count):
+        asked.append(count)
+        yield None
+    with Executor(1) as workers:
+        pairs, _ = ladder.fit_pairs(jobs, policy, workers, None, lambda batch: None, again)
+    return pairs, fitted, asked
 
 
 def test_the_pairs_fit_second_starts_only_for_the_best_fitted_so_far(monkeypatch):
@@ -581,8 +643,6 @@ def test_the_pairs_fit_second_starts_only_for_the_best_fitted_so_far(monkeypatch
     starts too, each keeping the better of its two fits.  A pair ranked below them keeps its first
     fit however good its second start would be, and one of a later batch that ranks among the best
     gets its second start in its own batch."""
-    from contextlib import contextmanager
-    from gearbench.identify.executor import Executor
     rig = _rig()
     replay = Replay(record(rig, [], duration=1.0))
     scorer = Scorer(replay)
@@ -596,25 +656,8 @@ def test_the_pairs_fit_second_starts_only_for_the_best_fitted_so_far(monkeypatch
     rss[names[0]], rss[names[1]], rss[names[2]], rss[names[3]] = (10.0, 9.0), (20.0, 25.0), (30.0, 5.0), (40.0, 3.0)
     late = policy.pair_batch + 1  # of the second batch: it ranks best after its first start
     rss[names[late]] = (4.0, 3.5)
-    fitted = []
-
-    def fake_fit(replay, plant, frees, scorer, start=None, **kw):
-        pair = frozenset(e.name for e in plant.effects[-2:])
-        which = int(start[0])
-        fitted.append((names.index(pair), which))
-        return FitResult(plant, {}, 1.0, rss[pair][which] * n, n, len(frees), True, "", 1)
-
-    monkeypatch.setattr(candidates_module, "fit", fake_fit)
-    monkeypatch.setattr(candidates_module.search, "starts",
-                        lambda replay, scorer, plant, frees, *a, **k: ([np.zeros(len(frees)), np.ones(len(frees))], 2))
-    asked = []
-
-    @contextmanager
-    def again(count):
-        asked.append(count)
-        yield None
-    with Executor(1) as workers:
-        pairs, ahead = ladder.fit_pairs(jobs, policy, workers, None, lambda batch: None, again)
+    pairs, fitted, asked = _pairs_with_fits(monkeypatch, jobs, names, policy,
+                                            lambda pair, which, frees: (rss[pair][which], len(frees)))
     assert sorted(i for i, which in fitted if which == 0) == list(range(len(jobs)))
     # batch 1: the three best first fits (0, 1, 2); batch 2: the new best (late) alone; none after
     assert sorted(i for i, which in fitted if which == 1) == [0, 1, 2, late]
@@ -622,3 +665,41 @@ def test_the_pairs_fit_second_starts_only_for_the_best_fitted_so_far(monkeypatch
     assert [p.result.rss / n for p in pairs[:4]] == [9.0, 20.0, 5.0, 40.0]
     assert pairs[late].result.rss / n == 3.5
     assert not any(p.later for p in pairs[:3]) and pairs[3].later and pairs[late + 1].later
+
+
+def test_the_pairs_fit_no_second_start_out_of_the_best_ones_reach(monkeypatch):
+    """``ladder._second_starts``: a pair at the noise floors puts the second starts of the pairs with
+    as many fitted values or more out of reach (``refit.out_of_reach``); one with fewer still gets
+    its second start."""
+    rig = _rig()
+    replay = Replay(record(rig, [], duration=1.0))
+    scorer = Scorer(replay)
+    n = 1000
+    policy = Policy(second_top=3)
+    jobs = pair_jobs(replay, scorer, rig, _six_ranked(rig), (), (), policy.pair_top)[:policy.pair_batch]
+    names = [frozenset((j[3].candidate.name, j[4].candidate.name)) for j in jobs]
+    # (weighted RSS in n from the first and second start, values fitted): the first at the floors
+    fits = {names[0]: ((0.9, 0.1), 4), names[1]: ((20.0, 5.0), 4), names[2]: ((30.0, 2.0), 3),
+            names[3]: ((40.0, 3.0), 5)}
+    pairs, fitted, asked = _pairs_with_fits(monkeypatch, jobs, names, policy,
+                                            lambda pair, which, frees: (fits[pair][0][which], fits[pair][1]))
+    assert [i for i, which in fitted if which == 1] == [2] and asked == [1]
+    assert [p.result.rss / n for p in pairs] == [0.9, 20.0, 2.0, 40.0]
+
+
+def test_a_screen_refits_no_candidate_out_of_its_leaders_reach_with_the_models_effects(monkeypatch):
+    """With effects already in the model, the screen's best ``Policy.joint_top`` are refitted jointly
+    with them, the leader always, the others only within its reach (``refit.out_of_reach``)."""
+    n = 1000
+    spring = AddedEffect("load_spring", {"stiffness": 0.5, "rest_angle_deg": 0.0})
+    # (first start, second start, joint refit) in n; the leader at the floors after its first start
+    rss = {"coulomb_friction (load)": (0.9 * n, 0.8 * n, 0.85 * n), "coulomb_friction (motor)": (20 * n, 30 * n, 0.5 * n),
+           "stribeck_friction (load)": (30 * n, 40 * n, 0.4 * n), "stribeck_friction (motor)": (60 * n, 70 * n, 0.3 * n)}
+    tried, fitted, costs = _screen_with_fits(monkeypatch, rss, ("coulomb_friction", "stribeck_friction"), n, (spring,))
+    assert [label for label, which in fitted if which == "joint"] == ["coulomb_friction (load)"]
+    assert costs == {"candidates": 4, "joint refit": 1}, costs
+    assert tried[0].label() == "coulomb_friction (load)" and tried[0].result.rss / n == 0.85
+    rss["coulomb_friction (load)"] = (1.1 * n, 1.2 * n, 1.05 * n)  # above the floors: the best three refitted
+    _, fitted, costs = _screen_with_fits(monkeypatch, rss, ("coulomb_friction", "stribeck_friction"), n, (spring,))
+    assert sorted(label for label, which in fitted if which == "joint") == [
+        "coulomb_friction (load)", "coulomb_friction (motor)", "stribeck_friction (load)"]

@@ -80,10 +80,10 @@ class Plan:
     nominal: dict = field(default_factory=dict)
     tolerance: dict = field(default_factory=dict)
 
-    def report(self, plant: Plant, stderr: dict, done: bool = True) -> dict:
+    def report(self, plant: Plant, stderr: dict, done: bool = True, why: str = "") -> dict:
         """``calibration`` of ``diagnose --json``: per value its nominal (the file's), final
         value, standard error, unit, tolerance and status: ``calibrated``; ``held``, with why;
-        ``file value`` when calibrating (``done`` False) did not pay."""
+        ``file value`` when calibrating (``done`` False) did not pay, or was not tried (``why``)."""
         out = {}
         for f in self.frees:
             out[f.label] = {"nominal": self.nominal[f.name], "value": param_value(plant, f),
@@ -91,8 +91,8 @@ class Plan:
                             "tolerance_pct": self.tolerance[f.name],
                             "status": "calibrated" if done else "file value"}
             if not done:
-                out[f.label]["message"] = ("kept: calibrating the datasheet values did not pay by the criterion "
-                                           "that adds an effect")
+                out[f.label]["message"] = why or ("kept: calibrating the datasheet values did not pay by the "
+                                                  "criterion that adds an effect")
         for f, why in self.held:
             out[f.label] = {"nominal": self.nominal[f.name], "value": param_value(plant, f), "stderr": None,
                             "unit": f.unit, "tolerance_pct": self.tolerance[f.name], "status": "held",

@@ -36,7 +36,7 @@ from .scoring import Scorer, bic_drop
 from .timing import Cost
 from .policy import Policy
 from .progress import Tracker
-from .refit import best_fit, frees_of, refit, refit_job, without_resets
+from .refit import best_fit, frees_of, out_of_reach, refit, refit_job, without_resets
 from .replay import Replay
 from .uncertainty import strong_correlations
 
@@ -158,6 +158,7 @@ class State:
     ahead: Ahead | None = None
     steps: int = 0
     stop: Stop | None = None
+    uncalibrated: str = ""  # why the datasheet values were not calibrated, where it was not tried
 
 
 def climb(ctx: Context, state: State) -> Iterator[State]:
@@ -193,7 +194,7 @@ def _rung(ctx: Context, state: State) -> Iterator[State]:
     yield state
     best = tried[0] if tried and tried[0].ok else None
     if ctx.plan.frees and state.calibration is None:
-        calibrated = _calibration(ctx, state, best, added, number)
+        state, calibrated = _calibration(ctx, state, best, added, number)
         if calibrated is not None:  # not a rung: the effects are tried again on the calibrated plant
             yield calibrated
             pruned = calibrated
@@ -227,24 +228,33 @@ def screen(ctx: Context, res: FitResult, refitted: tuple, number: int) -> list[T
     """A rung's candidates ranked: each fitted with the model's effects and calibrated values held
     (cheap) from the best start of its scan, the best ``second_top`` from their second starts too
     (:class:`~gearbench.identify.policy.Policy`), then the best ``joint_top`` refitted with the
-    model's effects."""
+    model's effects; neither for a candidate out of the leader's reach
+    (:func:`~gearbench.identify.refit.out_of_reach`: the leader at the noise floors, and as many
+    fitted values or more)."""
     model = res.plant
     added = ctx.added(model)
     cands = candidates(model, ctx.replay, ctx.only, ctx.also)
     how = Trial(free_plant=ctx.free_plant, rounds_below=res.rss, starts=1)
     tried = rank(fit_each(ctx.replay, ctx.scorer, model, cands, ctx.workers,
                           ctx.tracker.stage("candidates", number, len(cands)), how))
-    top = [t for t in tried[:ctx.policy.second_top] if t.later]
+    top = [t for t in tried[:ctx.policy.second_top] if t.later and not out_of_reach(_lead(tried), t.result.k)]
     if top:
         again = fit_each_later(ctx.replay, ctx.scorer, model, top, ctx.workers,
                                ctx.tracker.stage("second starts", number, len(top)), how)
         tried = rank(again + [t for t in tried if all(t is not u for u in top)])
     if added:
-        top = [(t.candidate, {**t.candidate.options, **t.params}) for t in tried[:ctx.policy.joint_top] if t.ok]
-        joint = fit_each(ctx.replay, ctx.scorer, model, top, ctx.workers,
+        top = [t for i, t in enumerate(tried[:ctx.policy.joint_top])
+               if t.ok and (i == 0 or not out_of_reach(_lead(tried), t.result.k))]
+        starts = [(t.candidate, {**t.candidate.options, **t.params}) for t in top]
+        joint = fit_each(ctx.replay, ctx.scorer, model, starts, ctx.workers,
                          ctx.tracker.stage("joint refit", number, len(top)), Trial(free_plant=refitted, refit=added))
-        tried = rank(joint + tried[len(top):])
+        tried = rank(joint + [t for t in tried if all(t is not u for u in top)])
     return tried
+
+
+def _lead(tried: list[Tried]) -> FitResult | None:
+    """The fit of a ranked screen's first candidate, None where it failed."""
+    return tried[0].result if tried and tried[0].ok else None
 
 
 def _model(plant: Plant, free_plant) -> tuple[list, dict]:
@@ -383,10 +393,12 @@ def _second_starts(jobs: list, pairs: list[Pair], policy: Policy, workers: Execu
     by more than 1e-3 of the RSS.  One of them decided the stage: p05's Stribeck friction with
     viscous friction at the load, second after its first start (RSS 78,756), first after its
     second (75,284); the others stayed losers or won anyway.  A pair ranked below the best few
-    keeps its first fit, as the screen's candidates do (:func:`screen`).  A pair's rank among
+    keeps its first fit, as the screen's candidates do (:func:`screen`), and so does a pair out of
+    the best one's reach (:func:`~gearbench.identify.refit.out_of_reach`).  A pair's rank among
     those fitted so far only falls as later batches come, so its batch decides for good."""
     best = sorted((p for p in pairs if p.ok), key=lambda p: p.result.bic)[:policy.second_top]
-    top = [i for i, p in enumerate(pairs) if p.later and any(p is b for b in best)]
+    top = [i for i, p in enumerate(pairs) if p.later and any(p is b for b in best)
+           and not out_of_reach(best[0].result, p.result.k)]
     if not top:
         return pairs
     with again(len(top)) as progress:
@@ -447,18 +459,29 @@ def _simplify(ctx: Context, res: FitResult, added: tuple[int, ...], free_plant) 
 
 
 def _calibration(ctx: Context, state: State, best: Tried | None, added: tuple[int, ...],
-                 number: int) -> State | None:
-    """``state`` calibrated, when the calibration pays (``Policy.accepts``) and explains more than
-    the best candidate (it pays no less: the lower BIC wins); else None."""
-    ctx.tracker.stage("calibration", number)
+                 number: int) -> tuple[State, State | None]:
+    """``state``, and ``state`` calibrated when the calibration pays (``Policy.accepts``) and
+    explains more than the best candidate (it pays no less: the lower BIC wins), else None.
+
+    Not tried where the best candidate pays and the calibration's values are out of its reach
+    (:func:`~gearbench.identify.refit.out_of_reach`: it is at the noise floors and fits no more
+    values); ``state`` then says so (``State.uncalibrated``)."""
     model, accepts = state.model, ctx.policy.accepts
+    k = len(frees_of(ctx.replay, model.plant, tuple(state.refitted) + tuple(ctx.plan.frees), added))
+    if best is not None and out_of_reach(best.result, k) and accepts(ctx.scorer, model, best.result):
+        return replace(state, uncalibrated=(
+            f"kept: {best.label()} explains the record down to its noise floors with {best.result.k} fitted "
+            f"value{'s' * (best.result.k != 1)}, and a calibration of {k} could not rank above it by the "
+            "criterion, so it was not tried")), None
+    ctx.tracker.stage("calibration", number)
+    state = replace(state, uncalibrated="")
     cal = calibrate(ctx, model, state.refitted, added)
     if cal is None or not accepts(ctx.scorer, model, cal) or not (
             best is None or not accepts(ctx.scorer, model, best.result) or cal.bic <= best.result.bic):
-        return None
+        return state, None
     cal = sharpen(ctx.replay, ctx.scorer, cal)
-    return replace(state, model=cal, calibration=CalibrationStep(len(state.rungs), model, cal),
-                   refitted=state.refitted + tuple(ctx.plan.frees))
+    return state, replace(state, model=cal, calibration=CalibrationStep(len(state.rungs), model, cal),
+                          refitted=state.refitted + tuple(ctx.plan.frees))
 
 
 def _along_the_valley(ctx: Context, state: State, number: int) -> State | None:

@@ -300,6 +300,7 @@ def diagnosis(ctx: Context, state: State, base: FitResult, not_tried: dict) -> D
     return Diagnosis(base.error, scorer.noise_floor, replay.unit(scorer.primary), scorer.primary,
                      list(state.first_tried), verdict, ladder, said, res.plant, base, base.plant,
                      scorer.relative_pct(base.sim),
-                     ctx.plan.report(res.plant, res.stderr, state.calibration is not None), state.calibration,
+                     ctx.plan.report(res.plant, res.stderr, state.calibration is not None, state.uncalibrated),
+                     state.calibration,
                      why, floors, tests, not_tried, ctx.tracker.timing.report(),
                      replay.data.gaps.to_dict() if replay.data.gaps else None, missing, res.numerical, res.refined)
