@@ -203,7 +203,9 @@ def test_diagnose_keeps_a_null_record_under_real_sensors_null():
     """p13's first 6 s (the independent simulator, nothing hidden: a 2048-count motor encoder and
     a 4000-count load encoder, both rounded, the current read 8 mA low): over the whole library
     the ladder takes only the current sensor's offset, within 4 standard errors of the sensor's
-    -8 mA, and ends at the noise floors (measured 2026-11-29: -7.961 mA +- 0.050, 11 s)."""
+    -8 mA, and ends at the noise floors (measured 2026-11-29: -7.961 mA +- 0.050, 11 s).  The offset
+    reaches the floors with one value, so no calibration of the datasheet values could rank above it,
+    and none is tried (``refit.out_of_reach``): each value says why."""
     import gearbench as gb
     truth = yaml.safe_load((DATA / "cases" / "p13" / "truth.yaml").read_text())
     data = excerpt("p13", 6.0)
@@ -214,6 +216,9 @@ def test_diagnose_keeps_a_null_record_under_real_sensors_null():
     assert abs(step.params["offset"] - truth["noise_model"]["current_A"]["offset"]) <= 4 * step.stderr["offset"]
     # at 1 kHz the floors read from the record are the noise's: none is above what the model leaves
     assert not any(f["over_read"] for f in d.to_json()["noise_floors"].values()) and "upper bound" not in d.reason
+    assert "calibration" not in {s["stage"] for s in d.timing["stages"]}
+    kept = [row for row in d.to_json()["calibration"].values() if row["status"] != "held"]
+    assert kept and all(row["status"] == "file value" and "so it was not tried" in row["message"] for row in kept)
 
 
 def final_model_fit(d, data):
