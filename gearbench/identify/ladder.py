@@ -543,8 +543,9 @@ def calibrate(ctx: Context, res: FitResult, free_plant, added: tuple[int, ...]) 
     :func:`_calibration` sharpens the one it accepts).  On 8 s of the bench rig with p04's datasheet
     errors and Coulomb friction hidden at the load, fitted with the friction: from the file's values
     25.9x the noise floors (load inertia 0.00545 kg m^2 for 0.006), from the scan's best points
-    2.07x, the truth 0.99x; in the ladder, after a pair with a load spring, 0.988x
-    (``tests/test_datasheet.py``).
+    2.07x, the truth 0.99x; in the ladder, after a pair with a load spring, 0.988x on 2026-11-28,
+    and 2.10x since the solver's step cap of 2026-12-07 took the ladder another path (a strict
+    xfail in ``tests/test_datasheet.py``).
 
     With several workers the scan and its points' fits do not wait for the fit from the model's
     values: they start on the workers it leaves free, the worse point's first (it has further to
