@@ -30,8 +30,8 @@ def test_a_value_at_its_bound_stays_there_and_the_rest_take_the_least_squares():
     jac, w = _problem(1)
     frees = [_free(key=k) for k in "abc"]
     free_step = -np.linalg.lstsq(jac, w, rcond=None)[0]
-    # the first value at its upper bound, where the free step would take it further up (or down:
-    # the bound is put on the side the step goes)
+    # the first value at the bound its free step would cross: the least squares over the half-space
+    # (convex, its minimum outside) lies on that bound
     u = np.zeros(3)
     low, high = -np.full(3, 1e9), np.full(3, 1e9)
     if free_step[0] > 0:
