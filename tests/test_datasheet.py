@@ -101,6 +101,7 @@ def test_datasheet_values_off_and_an_effect_missing():
     assert set(final) == {"coulomb_friction"}, d.to_json()["ladder"]
     assert final["coulomb_friction"]["torque"] == pytest.approx(0.5, rel=0.02)
     assert d.ladder[-1].error <= 1.2 * d.noise_floor
+    assert d.stopped == "noise floor", d.reason  # every signal, not only the load angle (0.994x, 2026-12-07)
     assert calibration_misses(d, truth, OFF["p04-like"]) == ([], [])
 
 
@@ -210,4 +211,5 @@ def test_datasheet_values_off_and_an_effect_missing_on_8_s():
     m = synthesize(truth, [hidden], t, u, noise=noise, seed=11, options=TIGHT)
     d = diagnose(datasheet(truth, OFF["p04-like"]), Replay(m), max_steps=3)
     assert d.verdict == "coulomb_friction" and d.ladder[-1].error <= 1.2 * d.noise_floor
+    assert d.stopped == "noise floor", d.reason  # every signal: the load angle alone passed at 2.10x
     assert calibration_misses(d, truth, OFF["p04-like"]) == ([], [])
