@@ -1,10 +1,10 @@
-"""``identify.numerics._step``: the Gauss-Newton step of the numerical check, solved within the
-values' bounds and in the fit's coordinates (an excess over a free floor)."""
+"""``identify.numerics._step`` and ``_excess_map``: the Gauss-Newton step of the numerical check,
+solved within the values' bounds and in the fit's coordinates (an excess over a free floor)."""
 from types import SimpleNamespace
 
 import numpy as np
 
-from gearbench.identify.numerics import _step
+from gearbench.identify.numerics import _excess_map, _step
 
 
 def _free(index=0, key="a", above=None):
@@ -21,14 +21,14 @@ def test_the_step_without_active_bounds_is_the_least_squares():
     jac, w = _problem()
     frees = [_free(key=k) for k in "abc"]
     u, se = np.zeros(3), np.array([1.0, 1e-3, 1e2])
-    dp, du = _step(SimpleNamespace(jac=jac), frees, u, -np.full(3, 1e9), np.full(3, 1e9), w, se)
-    assert np.allclose(dp, -np.linalg.lstsq(jac, w, rcond=None)[0], rtol=1e-8, atol=0)
-    assert np.allclose(du, dp)
+    m = _excess_map(frees)
+    du = _step(jac @ m, u, -np.full(3, 1e9), np.full(3, 1e9), w, se)
+    assert np.allclose(m @ du, -np.linalg.lstsq(jac, w, rcond=None)[0], rtol=1e-8, atol=0)
+    assert np.array_equal(m, np.eye(3))
 
 
 def test_a_value_at_its_bound_stays_there_and_the_rest_take_the_least_squares():
     jac, w = _problem(1)
-    frees = [_free(key=k) for k in "abc"]
     free_step = -np.linalg.lstsq(jac, w, rcond=None)[0]
     # the first value at the bound its free step would cross: the least squares over the half-space
     # (convex, its minimum outside) lies on that bound
@@ -38,7 +38,7 @@ def test_a_value_at_its_bound_stays_there_and_the_rest_take_the_least_squares():
         high[0] = 0.0
     else:
         low[0] = 0.0
-    dp, _ = _step(SimpleNamespace(jac=jac), frees, u, low, high, w, np.ones(3))
+    dp = _step(jac, u, low, high, w, np.ones(3))  # no excess: the coordinates are the values
     assert dp[0] == 0.0
     assert np.allclose(dp[1:], -np.linalg.lstsq(jac[:, 1:], w, rcond=None)[0], rtol=1e-8, atol=0)
 
@@ -48,6 +48,8 @@ def test_an_excess_over_a_free_floor_moves_by_its_difference():
     moves by ``dp_s - dp_c``."""
     jac, w = _problem(2, k=2)
     frees = [_free(key="floor"), _free(key="top", above="floor")]
-    dp, du = _step(SimpleNamespace(jac=jac), frees, np.zeros(2), -np.full(2, 1e9), np.full(2, 1e9), w, np.ones(2))
+    m = _excess_map(frees)
+    du = _step(jac @ m, np.zeros(2), -np.full(2, 1e9), np.full(2, 1e9), w, np.ones(2))
+    dp = m @ du
     assert np.allclose(dp, -np.linalg.lstsq(jac, w, rcond=None)[0], rtol=1e-8, atol=0)
     assert np.allclose(du, [dp[0], dp[1] - dp[0]], rtol=1e-8, atol=1e-15)

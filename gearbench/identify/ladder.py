@@ -237,14 +237,16 @@ def screen(ctx: Context, res: FitResult, refitted: tuple, number: int) -> list[T
     how = Trial(free_plant=ctx.free_plant, rounds_below=res.rss, starts=1)
     tried = rank(fit_each(ctx.replay, ctx.scorer, model, cands, ctx.workers,
                           ctx.tracker.stage("candidates", number, len(cands)), how))
-    top = [t for t in tried[:ctx.policy.second_top] if t.later and not out_of_reach(_lead(tried), t.result.k)]
+    lead = _lead(tried)
+    top = [t for t in tried[:ctx.policy.second_top] if t.later and not out_of_reach(lead, t.result.k)]
     if top:
         again = fit_each_later(ctx.replay, ctx.scorer, model, top, ctx.workers,
                                ctx.tracker.stage("second starts", number, len(top)), how)
         tried = rank(again + [t for t in tried if all(t is not u for u in top)])
     if added:
+        lead = _lead(tried)
         top = [t for i, t in enumerate(tried[:ctx.policy.joint_top])
-               if t.ok and (i == 0 or not out_of_reach(_lead(tried), t.result.k))]
+               if t.ok and (i == 0 or not out_of_reach(lead, t.result.k))]
         starts = [(t.candidate, {**t.candidate.options, **t.params}) for t in top]
         joint = fit_each(ctx.replay, ctx.scorer, model, starts, ctx.workers,
                          ctx.tracker.stage("joint refit", number, len(top)), Trial(free_plant=refitted, refit=added))

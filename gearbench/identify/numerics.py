@@ -64,19 +64,23 @@ def tighter(replay: Replay, factor: float = TIGHTER) -> Replay:
     return out.metered(replay.meter) if replay.meter is not None else out
 
 
-def _step(res: FitResult, frees: list, u: np.ndarray, low: np.ndarray, high: np.ndarray, w: np.ndarray,
-          se: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The Gauss-Newton step ``min |w + J dp|`` within the bounds, as ``(dp, du)``: in the values'
-    own units and in the fit's coordinates ``u`` (an excess ``u_s = p_s - p_c`` over a free floor
-    ``p_c``: ``dp = M du`` with ``M[s, c] = 1``), solved in standard errors for its conditioning."""
+def _excess_map(frees: list) -> np.ndarray:
+    """``M`` with ``dp = M du``: a shift ``du`` of the fit's coordinates as a shift of the values' own
+    (an excess ``u_s = p_s - p_c`` over a free floor ``p_c`` moves ``p_s`` by ``du_s + du_c``)."""
     m = np.eye(len(frees))
     for s, f in enumerate(frees):
-        for c, g in enumerate(frees):
-            if f.above and g.index == f.index and g.key == f.above:
-                m[s, c] = 1.0
-    scale = np.where(np.isfinite(se) & (se > 0.0), se, 1.0)
-    z = lsq_linear(res.jac @ m * scale, -w, bounds=((low - u) / scale, (high - u) / scale), method="bvls").x
-    return m @ (z * scale), z * scale
+        if f.above:
+            for c, g in enumerate(frees):
+                if g.index == f.index and g.key == f.above:
+                    m[s, c] = 1.0
+    return m
+
+
+def _step(jac: np.ndarray, u: np.ndarray, low: np.ndarray, high: np.ndarray, w: np.ndarray,
+          scale: np.ndarray) -> np.ndarray:
+    """The Gauss-Newton step ``du`` of the coordinates ``u``, ``min |w + jac du|`` within the bounds
+    ``low <= u + du <= high``, solved in units of ``scale`` (the standard errors) for its conditioning."""
+    return scale * lsq_linear(jac * scale, -w, bounds=((low - u) / scale, (high - u) / scale), method="bvls").x
 
 
 def refine(replay: Replay, scorer: Scorer, res: FitResult) -> FitResult:
@@ -91,12 +95,15 @@ def refine(replay: Replay, scorer: Scorer, res: FitResult) -> FitResult:
     low, high = np.array([f.low for f in frees]), np.array([f.high for f in frees])
     tight = tighter(replay)
     u = np.array([get_value(res.plant, f) for f in frees])
+    m = _excess_map(frees)
+    jac, scale = res.jac @ m, np.where(np.isfinite(se) & (se > 0.0), se, 1.0)
     plant, done, runs = res.plant, 0, 1
     try:
         sim = tight.run(plant, seams=res.seams)
         w = scorer.weighted(sim)
         while True:
-            dp, du = _step(res, frees, u, low, high, w, se)
+            du = _step(jac, u, low, high, w, scale)
+            dp = m @ du
             if done == STEPS or not np.any(np.abs(dp) > NUMERICAL_SHARE * se):
                 break
             for a in SHORTER:
