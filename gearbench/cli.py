@@ -31,7 +31,8 @@ def main() -> None:
               default=Path("results"), show_default=True, help="Folder for the tables and figures.")
 @click.option("--plot", is_flag=True, help="Write a PNG per run (set point, output, motor angle/N, voltage).")
 @click.option("--traces", is_flag=True, help="Write each run's trace CSV in the SPEC's measurement format.")
-@click.option("--method", type=click.Choice(["rodas4", "rosenbrock23", "ode23s", "dopri5", "ode45"]), default=None,
+@click.option("--method", type=click.Choice(["rodas4", "rodas4-exp", "rosenbrock23", "ode23s", "dopri5", "ode45"]),
+              default=None,
               help="Override the experiment's solver method.")
 @click.option("--rtol", type=float, default=None, help="Override the experiment's relative tolerance.")
 @click.option("--workers", type=click.IntRange(min=1), default=None,

@@ -128,7 +128,8 @@ N_OUT = 9
 # ---- run statistics: the solver's (solver.integrate.S_*), then the model's
 from .solver.integrate import (N_SOLVER_STATS, S_EVENTS, S_FEVALS, S_REJECTED, S_STATUS,  # noqa: E402,F401
                                S_STEPS, S_T_FAIL, STATUS_CHATTER, STATUS_MAX_STEPS, STATUS_NONFINITE,
-                               STATUS_OK, STATUS_STEP_TOO_SMALL, METHOD_DOPRI, METHOD_RODAS4, METHOD_ROSENBROCK)
+                               STATUS_OK, STATUS_STEP_TOO_SMALL, METHOD_DOPRI, METHOD_RODAS4, METHOD_RODAS4_EXP,
+                               METHOD_ROSENBROCK)
 
 S_IAE = N_SOLVER_STATS + 0      # rad s
 S_ISE = N_SOLVER_STATS + 1      # rad^2 s

@@ -22,7 +22,8 @@ from .plant.effects.codegen import compiled_model, needs_states
 from .plant.pack import pack_plant, rest_state, tolerance_scales
 
 METHODS = {"rosenbrock23": L.METHOD_ROSENBROCK, "ode23s": L.METHOD_ROSENBROCK,
-           "dopri5": L.METHOD_DOPRI, "ode45": L.METHOD_DOPRI, "rodas4": L.METHOD_RODAS4}
+           "dopri5": L.METHOD_DOPRI, "ode45": L.METHOD_DOPRI, "rodas4": L.METHOD_RODAS4,
+           "rodas4-exp": L.METHOD_RODAS4_EXP}
 
 
 SHIFT_SPEED_REL = 1e-9
@@ -141,7 +142,9 @@ class SolverOptions:
     Parameters
     ----------
     method : str
-        ``rodas4`` (default: L-stable Rosenbrock, fourth order),
+        ``rodas4`` (default: L-stable Rosenbrock, fourth order), ``rodas4-exp``
+        (the same, with an affine model's event-free steps between output samples
+        exact: ``solver/exponential.py``; what a replay solves with),
         ``rosenbrock23`` (alias ``ode23s``, the thesis's stiff method, second
         order) or ``dopri5`` (alias ``ode45``, explicit).
     rtol : float

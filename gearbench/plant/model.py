@@ -58,6 +58,13 @@ def piece(fx, x, p, modes, ref):
 
 
 @nb.njit(inline="always", _nrt=False)
+def affine(fx, p):
+    """Piecewise linear, and no error quadrature (|e|, e^2) integrated: open loop, or the
+    sampled controller, whose law acts at the segments' starts."""
+    return piecewise_linear(fx, p) and not _closed(p)
+
+
+@nb.njit(inline="always", _nrt=False)
 def watch(fx, p, modes, slope, h, idx, target):
     """The states whose extrema inside a step may hide a crossing: the mesh
     angle in free flight (a graze), the motor speed for the thesis's shift (a

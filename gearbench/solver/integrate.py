@@ -17,6 +17,7 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
+from . import exponential as ex
 from .events import first_crossing, hidden_crossing
 from .model import state_count
 from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
@@ -24,6 +25,7 @@ from .steppers import WS_ROWS, dopri5, hermite, jacobian, rodas4, rosenbrock23
 METHOD_ROSENBROCK = 0  # ode23s: L-stable Rosenbrock 2(3), Shampine & Reichelt 1997
 METHOD_DOPRI = 1       # Dormand-Prince 5(4), explicit
 METHOD_RODAS4 = 2      # RODAS: L-stable, stiffly accurate Rosenbrock 4(3), Hairer & Wanner
+METHOD_RODAS4_EXP = 3  # RODAS, and an affine model's steps between output samples exact (exponential.py)
 
 # the solver's statistics, first in ``stats``; the model's follow from N_SOLVER_STATS
 S_STATUS = 0       # 0 ok, else a STATUS_* code
@@ -64,9 +66,14 @@ the largest step (s), the method (``METHOD_*``) and the budget of steps and even
 Vectors = namedtuple("Vectors", "f xn fn s0 s1 xi")
 """Per-state scratch: the derivative at the step's start, the step's end state and
 derivative, its interpolant's end slopes (``hermite``), an interpolated state."""
-Work = namedtuple("Work", "modes before ws g thq widx wtarget mem seg_u")
+Work = namedtuple("Work", "modes before ws g thq widx wtarget mem seg_u ex")
 """The modes and a copy, stepper scratch, guard values (4 rows), interpolant extrema,
-watched components, the model's memory and the input held on each segment."""
+watched components, the model's memory, the input held on each segment and the exact
+steps' table (``Exact``)."""
+Exact = namedtuple("Exact", "keys h fill P b A T dt")
+"""The exact steps' table (``exponential.py``): per slot the modes and piece, the step (NaN: unused),
+``P1``, ``P2`` at it and at its half, ``df/dref``; the next slot to fill; scratch for ``A`` and
+``phi``; the output's sample time (s; 0: no exact steps)."""
 
 
 @nb.njit
@@ -85,10 +92,14 @@ def integrate(m, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hm
     order, na = m.feedback(m.args, p)
     lin = (np.empty((na, n)), np.empty((na, 2 * na)), order, np.empty(n))
     v = np.empty((6, n))
+    exact = method == METHOD_RODAS4_EXP and t_out.size > 1 and m.affine(m.args, p)
+    table = Exact(np.zeros((ex.SLOTS, m.n_modes + 1), dtype=np.int64), np.full(ex.SLOTS, np.nan),
+                  np.zeros(1, dtype=np.int64), np.empty((ex.SLOTS, 4, n, n)), np.empty((ex.SLOTS, n)),
+                  np.empty((n, n)), np.empty((4, n, n)), t_out[1] - t_out[0] if exact else 0.0)
     work = Work(np.zeros(m.n_modes, dtype=np.int64), np.zeros(m.n_modes, dtype=np.int64),
                 np.empty((WS_ROWS, n)), np.empty((4, m.n_guards)), np.empty(2 * m.n_watch),
                 np.zeros(m.n_watch, dtype=np.int64), np.empty(m.n_watch), np.zeros(m.n_mem),
-                np.zeros(seg_t.size))
+                np.zeros(seg_t.size), table)
     _run(m, p, Table(seg_t, seg_v, seg_s, seg_d, t_end), x, t_out,
          Tolerance(rtol, atol, atol / rtol, hmax, method, max_steps), outputs, stats,
          stats[N_SOLVER_STATS:], lin, Vectors(v[0], v[1], v[2], v[3], v[4], v[5]), work)
@@ -124,7 +135,7 @@ def _run(m, p, tab, x, t_out, tol, outputs, stats, mstats, lin, vec, work):
 @nb.njit(inline="always", _nrt=False)
 def _step(m, method, t, x, f, h, p, modes, ref_t, s, tol, ws, lin, vec):
     """One step of the chosen method (``METHOD_*``): (error norm, rhs evaluations)."""
-    if method == METHOD_RODAS4:
+    if method == METHOD_RODAS4 or method == METHOD_RODAS4_EXP:
         return rodas4(m, t, x, f, h, p, modes, ref_t, s, tol.rtol, tol.atol, ws, lin, vec.xn, vec.fn, vec.s0, vec.s1)
     if method == METHOD_DOPRI:
         return dopri5(m, t, x, f, h, p, modes, ref_t, s, tol.rtol, tol.atol, ws, lin, vec.xn, vec.fn, vec.s0, vec.s1)
@@ -137,7 +148,7 @@ def _step_factor(err, method):
     """``0.9 err ** -1/(q+1)`` with ``q`` the order of the error estimate; the
     fourth root (RODAS) by square roots, which cost a fraction of ``pow`` in
     the step-size control of every step."""
-    if method == METHOD_RODAS4:
+    if method == METHOD_RODAS4 or method == METHOD_RODAS4_EXP:
         return 0.9 * (1.0 / math.sqrt(math.sqrt(err)))
     return 0.9 * err ** (-1.0 / 3.0 if method == METHOD_ROSENBROCK else -0.2)
 
@@ -160,6 +171,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
     jac_region = 0
     skip = -1  # a guard refused where it stands, ignored until time moves on
     t = ta
+    tried = -math.inf  # where an exact step was last tried
     steps_seen, events_then = stats[S_STEPS], stats[S_EVENTS]
     while t < tb:
         if stats[S_STEPS] + stats[S_REJECTED] + stats[S_EVENTS] > tol.max_steps:  # events too: no endless loop
@@ -171,11 +183,32 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             stats[S_STATUS] = STATUS_CHATTER
             break
         ref_t = v0 + s * (t - ta)
+        if work.ex.dt > 0.0 and t > tried and io < t_out.size:
+            tried = t
+            t1 = _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, work)
+            if t1 > t:
+                io = _sample(m, p, t, t1, t1 - t, ta, v0, s, io, x, t_out, outputs, vec, work)
+                if not _advance(m, p, x, f, t1 - t, ref_t + s * (t1 - t), tol.atol, vec, work, stats, mstats):
+                    t = t1
+                    break
+                moved = m.rearm(m.args, x, p, work.modes, v0 + s * (t1 - ta), work.g[3], vec.xi, tol.rtol, tol.atol,
+                                work.mem, mstats, f, True)
+                t = t1
+                skip = -1
+                if moved > 0:
+                    stats[S_EVENTS] += moved
+                    stats[S_FEVALS] += moved
+                    jac_ok = False
+                continue
         hh = m.limit_step(m.args, x, f, p, work.modes, ref_t, s, min(h, tol.hmax), vec.xi)
         last = hh >= (tb - t) * (1.0 - 1e-12)
         proposed = hh
         if last:
             hh = tb - t
+        # with exact steps, the others end on the output's samples too: the next exact step starts there
+        on_sample = work.ex.dt > 0.0 and io < t_out.size and not last and t + hh >= t_out[io] > t
+        if on_sample:
+            hh = t_out[io] - t
         if tol.method != METHOD_DOPRI:
             jac_ok, jac_region = _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats,
                                                    lin, work)
@@ -192,7 +225,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
         # A step cut short to land on the segment's end has a small error that says little of the
         # next segment: grown from it, the next step often exceeded the proposed one and was
         # rejected (90 % of a replay's rejections before, docs/speed.md "The step after a corner").
-        if last and h_next > proposed:
+        if (last or on_sample) and h_next > proposed:
             h_next = proposed
         which, hh, last, h_next, retry = _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip,
                                                      tol, stats, lin, vec, work)
@@ -200,7 +233,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             h = hh
             continue
         if hh > 0.0:
-            t1 = tb if last else t + hh
+            t1 = tb if last else (t_out[io] if on_sample and which < 0 else t + hh)
             io = _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work)
             if not _advance(m, p, x, f, hh, ref_t + s * hh, tol.atol, vec, work, stats, mstats):
                 t = t1
@@ -223,6 +256,48 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
 
 
 @nb.njit(inline="always", _nrt=False)
+def _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, work):
+    """Try the exact step of an affine model from ``t`` to the next output sample (``exponential.py``);
+    returns where it ends, or ``t`` where it is not taken: the step is not a whole sample time
+    inside the segment, the model would shorten it, its interpolant misses the exact midpoint by
+    more than the tolerance, it ends on another piece, or an event lies inside it (the Rosenbrock
+    steps then take it, and locate the event as they always do)."""
+    tab = work.ex
+    dt = tab.dt
+    t1 = t_out[io]
+    if abs(t1 - tb) <= 1e-12 * max(1.0, abs(tb)):
+        t1 = tb
+    hx = t1 - t
+    if t1 > tb or abs(hx - dt) > 1e-9 * dt or dt > tol.hmax * (1.0 + 1e-9):
+        return t
+    if m.limit_step(m.args, x, f, p, work.modes, ref_t, s, hx, vec.xi) < hx:
+        return t
+    region = m.piece(m.args, x, p, work.modes, ref_t)
+    k = ex.lookup(tab.keys, tab.h, work.modes, region, dt)
+    if k < 0:
+        jac, w, order, tdot = lin
+        stats[S_FEVALS] += ex.affine_parts(m, x, f, p, work.modes, ref_t, tol.scale, region, order, w.shape[0],
+                                           tab.A, vec.xi, work.ws[0], work.ws[1])
+        k = ex.store(tab.keys, tab.h, tab.fill, work.modes, region, dt)
+        for i in range(state_count(m)):
+            tab.b[k, i] = vec.xi[i]
+        ex.phi(tab.A, dt, tab.P[k], tab.T, state_count(m))
+    xm = work.ws[0]
+    ex.exact_step(m, x, f, hx, p, work.modes, ref_t, s, tab.P[k], tab.b[k], vec.xn, vec.fn, vec.s0, vec.s1, xm)
+    stats[S_FEVALS] += 1
+    if m.region(m.args, vec.xn, p, work.modes, ref_t + s * hx) != region:
+        return t
+    if _crossing(m, p, t, hx, x, ref_t, s, skip, vec, work)[0] >= 0:
+        return t
+    g = work.g
+    ref_m = ref_t + 0.5 * s * hx
+    m.guards(m.args, xm, p, work.modes, ref_m, g[2])
+    hermite(0.5, hx, x, vec.s0, vec.xn, vec.s1, vec.xi)
+    m.guards(m.args, vec.xi, p, work.modes, ref_m, g[3])
+    return t1 if ex.guards_followed(g[0], g[1], g[2], g[3]) else t
+
+
+@nb.njit(inline="always", _nrt=False)
 def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, lin, work):
     """Take the Jacobian again unless it still holds (``jac_ok``: same mode and
     segment, piecewise-linear, on the same piece); then the rows the model
@@ -238,6 +313,17 @@ def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, l
 
 
 @nb.njit(inline="always", _nrt=False)
+def _crossing(m, p, t, hh, x, ref_t, s, skip, vec, work):
+    """The first guard that fires inside the step on its interpolant, and where: ``(which, theta)``
+    (-1 for none); the guards at its ends are left in ``work.g[0]``, ``work.g[1]``."""
+    g = work.g
+    which, theta = first_crossing(m, t, hh, x, vec.s0, vec.xn, vec.s1, p, work.modes, ref_t, s, skip,
+                                  g[0], g[1], vec.xi, g[2])
+    return hidden_crossing(m, t, hh, x, vec.s0, vec.xn, vec.s1, p, work.modes, ref_t, s, skip,
+                           which, theta, g[0], g[1], g[3], vec.xi, g[2], work.thq, work.widx, work.wtarget)
+
+
+@nb.njit(inline="always", _nrt=False)
 def _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip, tol, stats, lin, vec, work):
     """Look for an event inside the accepted step and land on it.
 
@@ -247,11 +333,7 @@ def _find_event(m, p, t, hh, last, h, h_next, x, ref_t, s, skip, tol, stats, lin
     and whether to retry instead (``h`` = ``hh``): the step re-taken to the
     root ended short of it."""
     g = work.g
-    which, theta = first_crossing(m, t, hh, x, vec.s0, vec.xn, vec.s1, p, work.modes, ref_t, s, skip,
-                                  g[0], g[1], vec.xi, g[2])
-    which, theta = hidden_crossing(m, t, hh, x, vec.s0, vec.xn, vec.s1, p, work.modes, ref_t, s, skip,
-                                   which, theta, g[0], g[1], g[3], vec.xi, g[2], work.thq, work.widx,
-                                   work.wtarget)
+    which, theta = _crossing(m, p, t, hh, x, ref_t, s, skip, vec, work)
     if which < 0:
         return which, hh, last, h_next, False
     hs = theta * hh
