@@ -5,12 +5,15 @@ of events (stick-slip, a clearance) against RODAS at a far tighter tolerance."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from scipy.linalg import expm
 
 import gearbench.layout as L
+from conftest import DATA
+from gearbench.api import _replay
 from gearbench.plant.effects import AddedEffect
 from gearbench.solver.exponential import phi
 from test_stick_slip import body, friction, geartrain, simulate
@@ -133,3 +136,19 @@ def test_a_model_that_is_not_affine_takes_no_exact_step():
     b = simulate(plant, [0.0], [0.0], t_end=3.0, x0=x0, rtol=1e-6, method="rodas4-exp")
     assert np.array_equal(a[1], b[1]) and np.array_equal(a[2].stats, b[2].stats)
     assert math.isfinite(a[1][-1, L.O_LOAD])
+
+
+def test_a_window_whose_last_sample_is_a_round_off_short_of_its_end():
+    """Practice record p04 (independent simulator) with its plant's clearance 0.1 % wider, as
+    diagnose's calibration plan replays it: a step from one sample to the next ended 3e-14 s short
+    of a window's end, where a contact guard stood at zero, and the sliver left over switched the
+    contact back and forth until the run stopped (2026-12-07).  A sample a round-off short of a
+    segment's end is now its end; the replay finishes with as many events as RODAS's, give or take
+    its contacts' chatter."""
+    case = DATA / "cases" / "p04"
+    plant, _, replay = _replay(str(case / "nominal.yaml"), case / "data.csv", None, 1.0, 1e-6, "test")
+    plant = replace(plant, gear=replace(plant.gear, backlash_deg=1.5015))
+    runs = {m: replace(replay, options=replace(replay.options, method=m)).run(plant) for m in ("rodas4", "rodas4-exp")}
+    assert replay.options.method == "rodas4-exp"
+    assert runs["rodas4-exp"].steps < 0.6 * runs["rodas4"].steps
+    assert abs(runs["rodas4-exp"].events - runs["rodas4"].events) <= 0.05 * runs["rodas4"].events

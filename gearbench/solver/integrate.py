@@ -183,7 +183,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             stats[S_STATUS] = STATUS_CHATTER
             break
         ref_t = v0 + s * (t - ta)
-        if work.ex.dt > 0.0 and t > tried and io < t_out.size:
+        if work.ex.dt > 0.0 and t > tried:
             tried = t
             t1 = _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, work)
             if t1 > t:
@@ -202,13 +202,19 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
                 continue
         hh = m.limit_step(m.args, x, f, p, work.modes, ref_t, s, min(h, tol.hmax), vec.xi)
         last = hh >= (tb - t) * (1.0 - 1e-12)
+        # With exact steps the others end on the output's samples too, where the next exact step
+        # starts; a sample a round-off short of the segment's end is its end (a step from one sample
+        # to the next, of the largest step, would leave a sliver of 3e-14 s to step).
+        ts = -1.0
+        if work.ex.dt > 0.0:
+            ts = _next_sample(t_out, io, t)
+            last = last or t + hh >= tb - 1e-12 * max(1.0, abs(tb))
         proposed = hh
         if last:
             hh = tb - t
-        # with exact steps, the others end on the output's samples too: the next exact step starts there
-        on_sample = work.ex.dt > 0.0 and io < t_out.size and not last and t + hh >= t_out[io] > t
+        on_sample = not last and t < ts <= t + hh and ts < tb - 1e-12 * max(1.0, abs(tb))
         if on_sample:
-            hh = t_out[io] - t
+            hh = ts - t
         if tol.method != METHOD_DOPRI:
             jac_ok, jac_region = _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats,
                                                    lin, work)
@@ -233,7 +239,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             h = hh
             continue
         if hh > 0.0:
-            t1 = tb if last else (t_out[io] if on_sample and which < 0 else t + hh)
+            t1 = tb if last else (ts if on_sample and which < 0 else t + hh)
             io = _sample(m, p, t, t1, hh, ta, v0, s, io, x, t_out, outputs, vec, work)
             if not _advance(m, p, x, f, hh, ref_t + s * hh, tol.atol, vec, work, stats, mstats):
                 t = t1
@@ -264,11 +270,11 @@ def _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, w
     steps then take it, and locate the event as they always do)."""
     tab = work.ex
     dt = tab.dt
-    t1 = t_out[io]
+    t1 = _next_sample(t_out, io, t)
     if abs(t1 - tb) <= 1e-12 * max(1.0, abs(tb)):
         t1 = tb
     hx = t1 - t
-    if t1 > tb or abs(hx - dt) > 1e-9 * dt or dt > tol.hmax * (1.0 + 1e-9):
+    if t1 < 0.0 or t1 > tb or abs(hx - dt) > 1e-9 * dt or dt > tol.hmax * (1.0 + 1e-9):
         return t
     if m.limit_step(m.args, x, f, p, work.modes, ref_t, s, hx, vec.xi) < hx:
         return t
@@ -310,6 +316,16 @@ def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, l
         jac_region = region
     m.jacobian_rows(m.args, x, p, ref_t, s, lin[2], lin[1].shape[0], lin[0], lin[3])
     return jac_ok, jac_region
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def _next_sample(t_out, io, t):
+    """The first output time from row ``io`` on that lies ahead of ``t`` by more than its round-off
+    (-1 for none): a step that ended a hair short of a sample does not take a step of that hair."""
+    for j in range(io, t_out.size):
+        if t_out[j] > t + 1e-12 * max(1.0, abs(t)):
+            return t_out[j]
+    return -1.0
 
 
 @nb.njit(inline="always", _nrt=False)
