@@ -13,8 +13,8 @@ replay's input is held between samples, so one ``h``, the sample time, serves mo
 table (:func:`lookup`), and a step costs two matrix-vector products and one right-hand side.
 
 Nothing here knows what the model is; the integrator (``integrate.py``) decides when such a
-step may be taken, and checks it: the step's cubic interpolant, on which events are located
-and the output sampled, must match the exact midpoint within the tolerance.
+step may be taken and checks that no event lies inside it: the step's cubic interpolant, on
+which events are located, must follow every guard to its exact midpoint (:func:`guards_followed`).
 """
 import numba as nb
 

@@ -265,9 +265,9 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
 def _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, work):
     """Try the exact step of an affine model from ``t`` to the next output sample (``exponential.py``);
     returns where it ends, or ``t`` where it is not taken: the step is not a whole sample time
-    inside the segment, the model would shorten it, its interpolant misses the exact midpoint by
-    more than the tolerance, it ends on another piece, or an event lies inside it (the Rosenbrock
-    steps then take it, and locate the event as they always do)."""
+    inside the segment, the model would shorten it, it ends on another piece, an event lies inside
+    it, or its cubic does not follow the guards (``exponential.guards_followed``): the Rosenbrock
+    steps then take it, and locate the event as they always do."""
     tab = work.ex
     dt = tab.dt
     t1 = _next_sample(t_out, io, t)
@@ -281,9 +281,8 @@ def _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, w
     region = m.piece(m.args, x, p, work.modes, ref_t)
     k = ex.lookup(tab.keys, tab.h, work.modes, region, dt)
     if k < 0:
-        jac, w, order, tdot = lin
-        stats[S_FEVALS] += ex.affine_parts(m, x, f, p, work.modes, ref_t, tol.scale, region, order, w.shape[0],
-                                           tab.A, vec.xi, work.ws[0], work.ws[1])
+        stats[S_FEVALS] += ex.affine_parts(m, x, f, p, work.modes, ref_t, tol.scale, region, lin[2],
+                                           lin[1].shape[0], tab.A, vec.xi, work.ws[0], work.ws[1])
         k = ex.store(tab.keys, tab.h, tab.fill, work.modes, region, dt)
         for i in range(state_count(m)):
             tab.b[k, i] = vec.xi[i]
