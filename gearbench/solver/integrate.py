@@ -92,10 +92,13 @@ def integrate(m, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hm
     order, na = m.feedback(m.args, p)
     lin = (np.empty((na, n)), np.empty((na, 2 * na)), order, np.empty(n))
     v = np.empty((6, n))
-    exact = method == METHOD_RODAS4_EXP and t_out.size > 1 and m.affine(m.args, p)
-    table = Exact(np.zeros((ex.SLOTS, m.n_modes + 1), dtype=np.int64), np.full(ex.SLOTS, np.nan),
-                  np.zeros(1, dtype=np.int64), np.empty((ex.SLOTS, 4, n, n)), np.empty((ex.SLOTS, n)),
-                  np.empty((n, n)), np.empty((4, n, n)), t_out[1] - t_out[0] if exact else 0.0)
+    # exact steps from one output sample to the next, where that is a step the solver may take
+    exact = (method == METHOD_RODAS4_EXP and t_out.size > 1 and t_out[1] - t_out[0] <= hmax * (1.0 + 1e-9)
+             and m.affine(m.args, p))
+    slots, ne = (ex.SLOTS, n) if exact else (0, 0)  # no table for a run without them
+    table = Exact(np.zeros((slots, m.n_modes + 1), dtype=np.int64), np.full(slots, np.nan),
+                  np.zeros(1, dtype=np.int64), np.empty((slots, 4, ne, ne)), np.empty((slots, ne)),
+                  np.empty((ne, ne)), np.empty((4, ne, ne)), t_out[1] - t_out[0] if exact else 0.0)
     work = Work(np.zeros(m.n_modes, dtype=np.int64), np.zeros(m.n_modes, dtype=np.int64),
                 np.empty((WS_ROWS, n)), np.empty((4, m.n_guards)), np.empty(2 * m.n_watch),
                 np.zeros(m.n_watch, dtype=np.int64), np.empty(m.n_watch), np.zeros(m.n_mem),
@@ -208,11 +211,11 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
         ts = -1.0
         if work.ex.dt > 0.0:
             ts = _next_sample(t_out, io, t)
-            last = last or t + hh >= tb - 1e-12 * max(1.0, abs(tb))
+            last = last or t + hh >= tb - _round_off(tb)
         proposed = hh
         if last:
             hh = tb - t
-        on_sample = not last and t < ts <= t + hh and ts < tb - 1e-12 * max(1.0, abs(tb))
+        on_sample = not last and t < ts <= t + hh and ts < tb - _round_off(tb)
         if on_sample:
             hh = ts - t
         if tol.method != METHOD_DOPRI:
@@ -271,10 +274,10 @@ def _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, w
     tab = work.ex
     dt = tab.dt
     t1 = _next_sample(t_out, io, t)
-    if abs(t1 - tb) <= 1e-12 * max(1.0, abs(tb)):
+    if abs(t1 - tb) <= _round_off(tb):
         t1 = tb
     hx = t1 - t
-    if t1 < 0.0 or t1 > tb or abs(hx - dt) > 1e-9 * dt or dt > tol.hmax * (1.0 + 1e-9):
+    if t1 < 0.0 or t1 > tb or abs(hx - dt) > 1e-9 * dt:
         return t
     if m.limit_step(m.args, x, f, p, work.modes, ref_t, s, hx, vec.xi) < hx:
         return t
@@ -318,11 +321,18 @@ def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, l
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
+def _round_off(t):
+    """How far apart two times (s) near ``t`` may be and still be one: the output grid and a
+    segment's end, computed apart, differ in their last bits."""
+    return 1e-12 * max(1.0, abs(t))
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
 def _next_sample(t_out, io, t):
     """The first output time from row ``io`` on that lies ahead of ``t`` by more than its round-off
     (-1 for none): a step that ended a hair short of a sample does not take a step of that hair."""
     for j in range(io, t_out.size):
-        if t_out[j] > t + 1e-12 * max(1.0, abs(t)):
+        if t_out[j] > t + _round_off(t):
             return t_out[j]
     return -1.0
 
