@@ -53,6 +53,8 @@ P_FF = 53          # velocity feedforward, V per rad/s of set-point speed at the
 P_REF_SLOPE = 54   # the current segment's set-point slope, rad/s (written by model.start_segment)
 P_KRATE = 55       # rate damping of damped_feedforward, V per rad/s of the error rate dr/dt - w_m/N (0 = none)
 P_PWL = 56         # 1.0 when every effect keeps the right-hand side piecewise-linear (packer)
+P_CURVED_M = 57    # 1.0 when the right-hand side would be piecewise-linear but for the sliding level of the
+P_CURVED_L = 58    # stick-slip law at the motor (the load), which curves with its speed: Stribeck's (packer)
 P_SIZE = 64        # the plant's and controller's slots; the effects' blocks follow
                    # (plant/effects/codegen.py lays them out from their declarations)
 

@@ -15,6 +15,8 @@ import gearbench.layout as L
 from conftest import DATA
 from gearbench.api import _replay
 from gearbench.plant.effects import AddedEffect
+from gearbench.plant.pack import pack_plant, tolerance_scales
+from gearbench.simulate import Segments, SolverOptions, simulate_packed
 from gearbench.solver.exponential import phi
 from test_stick_slip import body, friction, geartrain, simulate
 
@@ -103,16 +105,11 @@ def test_nothing_dissipates_and_no_energy_is_lost():
     assert drift["rodas4"] > 10 * drift["rodas4-exp"], drift
 
 
-def test_events_are_located_as_the_rosenbrock_steps_locate_them():
-    """The sampled, sloped voltage of ``test_stick_slip``'s Dormand-Prince test (1,500 segments)
-    through a train with Coulomb friction at the load and a 4 deg clearance: with exact steps between
-    the events, the angles at rtol 1e-6 are as close to RODAS at 1e-11 as RODAS at 1e-6 is (4.6e-6
-    rad then; 4.61e-6 with exact steps), with as many events (52), in under half the right-hand sides
-    (8,230 for 27,717; measured 2026-12-07)."""
-    plant = geartrain(friction("coulomb_friction", location="load", torque=0.05))
-    t = np.arange(1500) * 1e-3
-    v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
-    slope = np.append(np.diff(v) / 1e-3, 0.0)
+def _against_rodas(plant, t, v, slope, share: float) -> np.ndarray:
+    """1.5 s of ``plant`` under the sampled input ``v`` (``slope`` per s on each sample) by
+    ``rodas4-exp`` and ``rodas4`` at rtol 1e-6 and by ``rodas4`` at 1e-11: the exact steps' angles are
+    as close to the last as RODAS's at the same rtol (within 2x), with its events, in less than
+    ``share`` of RODAS's right-hand sides.  Returns the reference's motor and load angles (rad)."""
     runs = {}
     for method, rtol in (("rodas4", 1e-11), ("rodas4", 1e-6), ("rodas4-exp", 1e-6)):
         _, out, run = simulate(plant, t, v, slope, t_end=1.5, rtol=rtol, method=method)
@@ -123,12 +120,28 @@ def test_events_are_located_as_the_rosenbrock_steps_locate_them():
     events = {key: int(stats[L.S_EVENTS]) for key, (_, stats) in runs.items()}
     assert events["rodas4-exp", 1e-6] == events["rodas4", 1e-11] > 10, events
     fevals = {key: int(stats[L.S_FEVALS]) for key, (_, stats) in runs.items()}
-    assert fevals["rodas4-exp", 1e-6] < 0.5 * fevals["rodas4", 1e-6], fevals
+    assert fevals["rodas4-exp", 1e-6] < share * fevals["rodas4", 1e-6], fevals
+    return ref
+
+
+def test_events_are_located_as_the_rosenbrock_steps_locate_them():
+    """The sampled, sloped voltage of ``test_stick_slip``'s Dormand-Prince test (1,500 segments)
+    through a train with Coulomb friction at the load and a 4 deg clearance: with exact steps between
+    the events, the angles at rtol 1e-6 are as close to RODAS at 1e-11 as RODAS at 1e-6 is (4.6e-6
+    rad then; 4.61e-6 with exact steps), with as many events (52), in under half the right-hand sides
+    (8,230 for 27,717; measured 2026-12-07)."""
+    plant = geartrain(friction("coulomb_friction", location="load", torque=0.05))
+    t = np.arange(1500) * 1e-3
+    v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
+    slope = np.append(np.diff(v) / 1e-3, 0.0)
+    _against_rodas(plant, t, v, slope, 0.5)
 
 
 def test_a_model_that_is_not_affine_takes_no_exact_step():
-    """Stribeck friction is not piecewise linear: the method is RODAS's, step for step."""
-    eff = friction("stribeck_friction", location="load", static_torque=3.0, coulomb_torque=2.0, stribeck_speed=0.5)
+    """Regularized Stribeck friction (tanh of the speed) is affine in no mode: the method is RODAS's,
+    step for step."""
+    eff = friction("stribeck_friction", model="regularized", location="load", static_torque=3.0,
+                   coulomb_torque=2.0, stribeck_speed=0.5)
     plant = body(AddedEffect("load_spring", {"stiffness": 50.0, "rest_angle_deg": 0.0}), eff)
     x0 = np.zeros(L.N_STATE)
     x0[L.X_WM] = x0[L.X_WL] = 10.0
@@ -136,6 +149,67 @@ def test_a_model_that_is_not_affine_takes_no_exact_step():
     b = simulate(plant, [0.0], [0.0], t_end=3.0, x0=x0, rtol=1e-6, method="rodas4-exp")
     assert np.array_equal(a[1], b[1]) and np.array_equal(a[2].stats, b[2].stats)
     assert math.isfinite(a[1][-1, L.O_LOAD])
+
+
+def _stribeck(one_body: bool):
+    """Stick-slip Stribeck friction at the load with a spring: on ``test_stick_slip``'s train
+    (breakaway 0.08 N m, sliding 0.05, 0.5 rad/s; 0.5 N m/rad), or on its one rigid body driven by a
+    torque, where the load's friction acts on the rotor's body (3 and 2 N m, 50 N m/rad)."""
+    if one_body:
+        eff = friction("stribeck_friction", location="load", static_torque=3.0, coulomb_torque=2.0,
+                       stribeck_speed=0.5)
+        return body(eff, AddedEffect("load_spring", {"stiffness": 50.0, "rest_angle_deg": 0.0})), L.P_CURVED_L
+    eff = friction("stribeck_friction", location="load", static_torque=0.08, coulomb_torque=0.05,
+                   stribeck_speed=0.5)
+    return geartrain(eff, AddedEffect("load_spring", {"stiffness": 0.5, "rest_angle_deg": 0.0})), L.P_CURVED_L
+
+
+@pytest.mark.parametrize("one_body", [False, True], ids=["train", "one body"])
+def test_stribeck_friction_takes_again_only_its_speeds_column(one_body):
+    """Stick-slip Stribeck friction curves with its body's speed alone (``layout.P_CURVED_L``): while
+    the body slips the solver takes again only that column of a Jacobian it keeps, and the run is the
+    one the whole Jacobian taken at every step gives (the packed flag cleared), event for event, to
+    1e-7 rad of the angles, for fewer right-hand sides (the train, rtol 1e-8: 41 events, 66,363
+    right-hand sides for 93,694, both 1.93e-8 rad from RODAS at 1e-11; measured 2026-12-07; the one
+    body reads two states, so it saves less: 16,046 for 16,271).  The input is
+    ``test_events_are_located_...``'s sampled voltage (a torque in N m on the body)."""
+    plant, flag = _stribeck(one_body)
+    t = np.arange(1500) * 1e-3
+    v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
+    slope = np.append(np.diff(v) / 1e-3, 0.0)
+    p = pack_plant(plant)
+    assert p[flag] == 1.0 and p[L.P_PWL] == 0.0 and p[L.P_CURVED_M] == 0.0
+    whole = pack_plant(plant)
+    whole[flag] = 0.0
+    runs = {}
+    for name, packed in (("columns", p), ("whole", whole)):
+        packed[L.P_CTRL] = L.CTRL_OPEN
+        opts = SolverOptions(rtol=1e-8, max_step_s=1e-3, output_dt_s=1e-3, method="rodas4")
+        r = simulate_packed(packed, tolerance_scales(plant), Segments(t, v, slope), 1.5, np.zeros(L.N_STATE), opts)
+        assert r.ok, r.status
+        runs[name] = r
+    a, b = runs["columns"], runs["whole"]
+    assert a.stats[L.S_EVENTS] == b.stats[L.S_EVENTS] > 5
+    angles = [L.O_MOTOR, L.O_LOAD]
+    assert np.max(np.abs(a.outputs[:, angles] - b.outputs[:, angles])) < 1e-7
+    assert a.stats[L.S_FEVALS] < (1.0 if one_body else 0.8) * b.stats[L.S_FEVALS], (a.stats[L.S_FEVALS],
+                                                                                 b.stats[L.S_FEVALS])
+
+
+def test_a_stuck_stribeck_body_takes_exact_steps():
+    """While the load is stuck the train is affine, so with ``rodas4-exp`` its steps there are exact.
+    Voltage pulses with rests (3 V for 0.15 s in each half second, the sign flipping each second)
+    through Stribeck friction at the load, no spring: the load stands still on 18 % of the samples.
+    The angles at rtol 1e-6 are as close to RODAS at 1e-11 as RODAS's at 1e-6 (3.17e-6 rad for
+    3.14e-6), with the same 41 events, in fewer right-hand sides (15,347 for 24,054; measured
+    2026-12-07)."""
+    eff = friction("stribeck_friction", location="load", static_torque=0.08, coulomb_torque=0.05,
+                   stribeck_speed=0.5)
+    plant = geartrain(eff)
+    t = np.arange(1500) * 1e-3
+    v = np.where((t % 0.5) < 0.15, 3.0, 0.0) * np.where((t % 1.0) < 0.5, 1.0, -1.0)
+    ref = _against_rodas(plant, t, v, np.zeros(len(t)), 0.8)
+    assert np.mean(np.diff(ref[:, 1]) == 0.0) > 0.1  # stuck for a tenth of the record at least
 
 
 def test_a_window_whose_last_sample_is_a_round_off_short_of_its_end():

@@ -168,7 +168,7 @@ def test_the_generated_model_meets_the_contract():
     """The geartrain's generated model module has every name the integrator asks for."""
     from gearbench.solver.model import NAMES, missing
     model = compiled_model()
-    assert missing(model) == [] and len(NAMES) == 26
+    assert missing(model) == [] and len(NAMES) == 27
     assert model.args is model  # its effects' sums are its own args
 
 

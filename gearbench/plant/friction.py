@@ -30,8 +30,8 @@ event fires) and 0 while stuck.
 """
 import numba as nb
 
-from ..layout import (M_STICK_M, P_HAS_SHAFT, P_N, P_RIGID, P_STICK_L, P_STICK_M, P_STOP_EPS_M, X_WL,
-                      X_WM, X_WP)
+from ..layout import (M_STICK_M, P_CURVED_L, P_CURVED_M, P_HAS_SHAFT, P_N, P_RIGID, P_STICK_L, P_STICK_M,
+                      P_STOP_EPS_M, X_WL, X_WM, X_WP)
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -41,6 +41,19 @@ def present(p, b):
     if b == 0:
         return p[P_STICK_M] > 0.0 or (one_body and p[P_STICK_L] > 0.0)
     return p[P_STICK_L] > 0.0 and not one_body
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def curves(p, modes, b):
+    """Whether body ``b`` slips under a sliding level that curves with its speed (Stribeck's,
+    ``layout.P_CURVED_M``/``P_CURVED_L``): the right-hand side is then not affine in that speed
+    (and in no other state: the level depends on the speed alone).  Stuck, it holds whatever the law."""
+    if modes[M_STICK_M + b] == 0:
+        return False
+    one_body = p[P_RIGID] > 0.0 and p[P_HAS_SHAFT] == 0.0
+    if b == 0:
+        return p[P_CURVED_M] > 0.0 or (one_body and p[P_CURVED_L] > 0.0)
+    return p[P_CURVED_L] > 0.0 and not one_body
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)

@@ -17,13 +17,13 @@ from ..layout import (COMP_THESIS, CTRL_BANGBANG, CTRL_OPEN, CTRL_SAMPLED_PV, G_
                       G_ENTER_POS, G_KINK, G_LEAVE, G_SAT, G_STICK_L, G_STICK_M, M_STICK_L, M_STICK_M,
                       G_SHIFT, M_BB, M_CONTACT, M_SAT, M_SHIFT, N_GUARDS, N_MODEL_STATS, N_MODES, N_OUT,
                       N_SOLVER_STATS, N_STATE, O_CURRENT, O_DELTA, O_LOAD, O_MOTOR, O_SETPOINT, O_TORQUE,
-                      O_VOLTAGE, O_WL, O_WM, P_COMP, P_CTRL, P_CTRL_GAIN, P_DELAY, P_KP, P_KV, P_N,
+                      O_VOLTAGE, O_WL, O_WM, P_COMP, P_CTRL, P_CTRL_GAIN, P_CURVED_L, P_CURVED_M, P_DELAY, P_KP, P_KV, P_N,
                       P_REF_SLOPE, P_SHIFT, P_VMAX, S_IAE, S_ISE, S_MAX_ERR, S_SWITCHES, S_T_SAT,
                       X_DELTA, X_I, X_IAE, X_ISE, X_THM, X_WL, X_WM)
 from . import friction
 from .modes import (apply_event, break_away, classify, classify_controller, classify_damping, continuous_law,
                     direction_of_segment, guards, saturation_reach, switch_mode)
-from .rhs import (applied_input, feedback_states, linear_region, load_angle, mesh_torque,
+from .rhs import (applied_input, curved, feedback_states, linear_region, load_angle, mesh_torque,
                   piecewise_linear, quadrature_rows, rhs)
 
 # the model's memory between calls
@@ -59,9 +59,10 @@ def piece(fx, x, p, modes, ref):
 
 @nb.njit(inline="always", _nrt=False)
 def affine(fx, p):
-    """Piecewise linear, and no error quadrature (|e|, e^2) integrated: open loop, or the
-    sampled controller, whose law acts at the segments' starts."""
-    return piecewise_linear(fx, p) and not _closed(p)
+    """Piecewise linear where ``curved`` names no state (with Stribeck friction: while its body is
+    stuck), and no error quadrature (|e|, e^2) integrated: open loop, or the sampled controller,
+    whose law acts at the segments' starts."""
+    return not _closed(p) and (piecewise_linear(fx, p) or p[P_CURVED_M] > 0.0 or p[P_CURVED_L] > 0.0)
 
 
 @nb.njit(inline="always", _nrt=False)

@@ -49,7 +49,11 @@ def pack_plant(plant: Plant, p: np.ndarray | None = None) -> np.ndarray:
         p[L.P_JP] = plant.shaft.pinion_inertia
     p[L.P_TF] = 1.0  # harmless default; controllers set their own
     p[L.P_FRIC_EPS_M] = p[L.P_FRIC_EPS_L] = 1.0  # the solver sets the real ones
-    p[L.P_PWL] = 1.0 if pack_effects(base.effects, plant, p) else 0.0
+    linear, curved = pack_effects(base.effects, plant, p)
+    p[L.P_PWL] = 1.0 if linear and not curved else 0.0
+    if linear:  # piecewise linear but for these sliding levels: their speeds' Jacobian columns only
+        p[L.P_CURVED_M] = 1.0 if "motor" in curved else 0.0
+        p[L.P_CURVED_L] = 1.0 if "load" in curved else 0.0
     return p
 
 

@@ -35,7 +35,8 @@ from ..layout import (CTRL_OPEN, CTRL_PI, CTRL_PID, CTRL_SAMPLED_PV, M_CONTACT, 
                       P_DMESH, P_DRIVE_GAIN, P_DS, P_H, P_HAS_SHAFT, P_JL, P_JM, P_JP, P_KE,
                       P_KMESH, P_KS, P_KT, P_L, P_LAW, P_N, P_R, P_RIGID, P_TF, P_TORQUE_IN,
                       P_VMAX, X_DELTA, X_I, X_IAE, X_ISE, X_PHI, X_THM, X_WL, X_WM, X_WP,
-                      X_ZD, X_ZI, N_DYN, P_FRIC_EPS_M, P_FRIC_EPS_L, P_PWL)
+                      X_ZD, X_ZI, N_DYN, P_CURVED_L, P_CURVED_M, P_FRIC_EPS_M, P_FRIC_EPS_L, P_PWL)
+from . import friction
 from .contact import engaged_torque
 from .friction import net_torque
 
@@ -216,6 +217,24 @@ def piecewise_linear(fx, p):
     Jacobian taken once serves every step until the region changes.
     """
     return p[P_PWL] > 0.0
+
+
+@nb.njit(inline="always", _nrt=False)
+def curved(fx, p, modes, idx):
+    """The states along which ``rhs``'s Jacobian changes inside ``modes`` and one
+    ``linear_region``, written to ``idx``, and how many: none for a piecewise-linear
+    right-hand side; the speed of each body slipping under a curved sliding level
+    (``friction.curves``) where that is all that keeps it from being one; -1 otherwise."""
+    if p[P_PWL] > 0.0:
+        return 0
+    if p[P_CURVED_M] == 0.0 and p[P_CURVED_L] == 0.0:
+        return -1
+    n = 0
+    for b in range(2):
+        if friction.curves(p, modes, b):
+            idx[n] = friction.speed_index(p, b)
+            n += 1
+    return n
 
 
 @nb.njit(_nrt=False)

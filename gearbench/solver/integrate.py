@@ -66,10 +66,10 @@ the largest step (s), the method (``METHOD_*``) and the budget of steps and even
 Vectors = namedtuple("Vectors", "f xn fn s0 s1 xi")
 """Per-state scratch: the derivative at the step's start, the step's end state and
 derivative, its interpolant's end slopes (``hermite``), an interpolated state."""
-Work = namedtuple("Work", "modes before ws g thq widx wtarget mem seg_u ex")
+Work = namedtuple("Work", "modes before ws g thq widx wtarget mem seg_u ex curved")
 """The modes and a copy, stepper scratch, guard values (4 rows), interpolant extrema,
-watched components, the model's memory, the input held on each segment and the exact
-steps' table (``Exact``)."""
+watched components, the model's memory, the input held on each segment, the exact
+steps' table (``Exact``) and the states the model's ``curved`` names."""
 Exact = namedtuple("Exact", "keys h fill P b A T dt")
 """The exact steps' table (``exponential.py``): per slot the modes and piece, the step (NaN: unused),
 ``P1``, ``P2`` at it and at its half, ``df/dref``; the next slot to fill; scratch for ``A`` and
@@ -102,7 +102,7 @@ def integrate(m, p, seg_t, seg_v, seg_s, seg_d, t_end, x0, t_out, rtol, atol, hm
     work = Work(np.zeros(m.n_modes, dtype=np.int64), np.zeros(m.n_modes, dtype=np.int64),
                 np.empty((WS_ROWS, n)), np.empty((4, m.n_guards)), np.empty(2 * m.n_watch),
                 np.zeros(m.n_watch, dtype=np.int64), np.empty(m.n_watch), np.zeros(m.n_mem),
-                np.zeros(seg_t.size), table)
+                np.zeros(seg_t.size), table, np.zeros(n, dtype=np.int64))
     _run(m, p, Table(seg_t, seg_v, seg_s, seg_d, t_end), x, t_out,
          Tolerance(rtol, atol, atol / rtol, hmax, method, max_steps), outputs, stats,
          stats[N_SOLVER_STATS:], lin, Vectors(v[0], v[1], v[2], v[3], v[4], v[5]), work)
@@ -168,10 +168,12 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
     # The Jacobian is taken again only when it may have changed: never for a
     # step re-taken from the same point (after a rejection, or to land on an
     # event), and for a piecewise-linear right-hand side only when the mode,
-    # the segment or the region changes (it is constant in between).
+    # the segment or the region changes (it is constant in between); where it
+    # curves along a few states only (``m.curved``), their columns after each step.
     linear = m.piecewise_linear(m.args, p)
     jac_ok = False
     jac_region = 0
+    stale = 0  # the curved columns to take again before the next step
     skip = -1  # a guard refused where it stands, ignored until time moves on
     t = ta
     tried = -math.inf  # where an exact step was last tried
@@ -186,7 +188,7 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
             stats[S_STATUS] = STATUS_CHATTER
             break
         ref_t = v0 + s * (t - ta)
-        if work.ex.dt > 0.0 and t > tried:
+        if work.ex.dt > 0.0 and t > tried and (linear or m.curved(m.args, p, work.modes, work.curved) == 0):
             tried = t
             t1 = _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, work)
             if t1 > t:
@@ -219,8 +221,9 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
         if on_sample:
             hh = ts - t
         if tol.method != METHOD_DOPRI:
-            jac_ok, jac_region = _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats,
-                                                   lin, work)
+            jac_ok, jac_region = _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, stale, tol,
+                                                   stats, lin, work)
+            stale = 0
         err, ne = _step(m, tol.method, t, x, f, hh, p, work.modes, ref_t, s, tol, work.ws, lin, vec)
         stats[S_FEVALS] += ne
         if not (err <= 1.0):
@@ -248,7 +251,9 @@ def _segment(m, p, tab, k, ta, tb, h, io, x, t_out, tol, outputs, stats, mstats,
                 t = t1
                 break
             t = t1
-            jac_ok = jac_ok and linear
+            if not linear:
+                stale = m.curved(m.args, p, work.modes, work.curved)
+                jac_ok = jac_ok and stale >= 0
             skip = -1
         ref_now = v0 + s * (t - ta)
         if which >= 0:
@@ -306,14 +311,16 @@ def _exact(m, p, t, tb, io, x, f, ref_t, s, skip, t_out, tol, stats, lin, vec, w
 
 
 @nb.njit(inline="always", _nrt=False)
-def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, tol, stats, lin, work):
+def _refresh_jacobian(m, p, t, x, f, ref_t, s, jac_ok, jac_region, stale, tol, stats, lin, work):
     """Take the Jacobian again unless it still holds (``jac_ok``: same mode and
-    segment, piecewise-linear, on the same piece); then the rows the model
-    knows exactly.  Returns the new ``(jac_ok, jac_region)``."""
+    segment, piecewise-linear, on the same piece), or only its ``stale`` columns
+    along ``work.curved`` (the state moved since they were taken); then the rows
+    the model knows exactly.  Returns the new ``(jac_ok, jac_region)``."""
     region = m.piece(m.args, x, p, work.modes, ref_t)
-    if not jac_ok or region != jac_region:
+    whole = not jac_ok or region != jac_region
+    if whole or stale > 0:
         stats[S_FEVALS] += jacobian(m, t, x, f, p, work.modes, ref_t, s, tol.scale, region, lin,
-                                    work.ws[0], work.ws[1], work.ws[2])
+                                    work.ws[0], work.ws[1], work.ws[2], work.curved, -1 if whole else stale)
         jac_ok = True
         jac_region = region
     m.jacobian_rows(m.args, x, p, ref_t, s, lin[2], lin[1].shape[0], lin[0], lin[3])

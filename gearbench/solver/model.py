@@ -25,9 +25,16 @@ Flow
     the others feed nothing back (their Jacobian columns are zero).
     ``piecewise_linear(args, p) -> bool``: ``rhs`` is affine in ``x`` inside
     each mode and each ``region``, so a Jacobian can be reused there.
-    ``affine(args, p) -> bool``: more than ``piecewise_linear``: ``rhs`` is affine in the
-    whole state and in ``ref`` inside each mode and ``region`` (no row left to
-    ``jacobian_rows``), so a step there may be taken exactly (``exponential.py``).
+    ``curved(args, p, modes, idx) -> count``: where it is not, the states along
+    which the Jacobian changes inside these modes and one ``region``, written to
+    ``idx``: 0 where ``rhs`` is affine in ``x`` there after all (a Jacobian can
+    be reused), a few where it curves along those states alone (only their
+    columns are taken again), -1 where it may curve along any (the whole
+    Jacobian is taken at every step).
+    ``affine(args, p) -> bool``: more than ``curved`` 0: ``rhs`` is affine in the
+    whole state and in ``ref`` inside each mode and ``region`` where ``curved`` is 0
+    (no row left to ``jacobian_rows``), so a step there may be taken exactly
+    (``exponential.py``).
     ``region(args, x, p, modes, ref) -> int``: which affine piece ``x`` lies in.
     ``piece(args, x, p, modes, ref) -> int``: the piece a step from ``x`` is
     on (a located kink leaves ``x`` on the boundary: there the mode says).
@@ -92,7 +99,7 @@ def _guard_count(m):
 
 
 NAMES = ("args", "n_state", "n_modes", "n_guards", "n_out", "n_mem", "n_stats", "n_watch",
-         "rhs", "feedback", "piecewise_linear", "affine", "region", "piece", "jacobian_rows", "limit_step",
+         "rhs", "feedback", "piecewise_linear", "curved", "affine", "region", "piece", "jacobian_rows", "limit_step",
          "guards", "watch", "apply_event", "changed", "rearm",
          "start", "start_segment", "after_step", "output", "finish")
 

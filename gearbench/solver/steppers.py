@@ -64,7 +64,7 @@ def hermite(theta, h, y0, f0, y1, f1, out):
 
 
 @nb.njit(_nrt=False)
-def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb):
+def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp, fb, states, count):
     """Forward-difference Jacobian over the feedback states ``order[:na]``
     (``m.feedback``): ``jac[a, i] = d f_i / d y_order[a]``.  The other states
     feed nothing back (the geartrain's quadratures, a shaft's twist without a
@@ -84,33 +84,23 @@ def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp,
     piece put a 1.4e-5 relative error into d(di/dt)/d(theta_m), and the reused
     Jacobian held the 3 s ramp to 0.5 ms steps, 6116 in all against 707 at
     rtol 3e-7).  Writes ``lin``'s ``jac`` and ``tdot``; ``ytmp``, ``ftmp``,
-    ``fb``: scratch; returns the right-hand-side evaluations spent."""
-    jac, w, order, tdot = lin
-    n = state_count(m)
-    na = w.shape[0]
+    ``fb``: scratch; returns the right-hand-side evaluations spent.
+
+    With ``count`` >= 0 only the columns along ``states[:count]`` are taken
+    again (the model's ``curved`` ones), the others and ``tdot`` kept."""
+    na, order, tdot = lin[1].shape[0], lin[2], lin[3]
     base_off = m.region(m.args, y, p, modes, ref0) != region
     nfe = 0
     for a in range(na):
-        j = order[a]
-        for i in range(n):
-            ytmp[i] = y[i]
-        dy = math.sqrt(EPS) * max(abs(y[j]), scale[j])
-        ytmp[j] = y[j] + dy
-        if m.region(m.args, ytmp, p, modes, ref0) != region:
-            ytmp[j] = y[j] - dy
-        dy = ytmp[j] - y[j]
-        m.rhs(m.args, ytmp, p, modes, ref0, ftmp)
-        nfe += 1
-        base = f0
-        if base_off:  # y + dy is the base, y + 2 dy the other point
-            for i in range(n):
-                fb[i] = ftmp[i]
-            base = fb
-            ytmp[j] = y[j] + 2.0 * dy
-            m.rhs(m.args, ytmp, p, modes, ref0, ftmp)
-            nfe += 1
-        for i in range(n):
-            jac[a, i] = (ftmp[i] - base[i]) / dy
+        if count < 0:
+            nfe += _column(m, a, y, f0, p, modes, ref0, scale, region, base_off, lin, ytmp, ftmp, fb)
+        else:
+            for c in range(count):
+                if order[a] == states[c]:
+                    nfe += _column(m, a, y, f0, p, modes, ref0, scale, region, base_off, lin, ytmp, ftmp, fb)
+    if count >= 0:
+        return nfe
+    n = state_count(m)
     if slope != 0.0:
         dt = math.sqrt(EPS) * max(abs(t), 1.0)
         if m.region(m.args, y, p, modes, ref0 + slope * dt) != region:
@@ -129,6 +119,35 @@ def jacobian(m, t, y, f0, p, modes, ref0, slope, scale, region, lin, ytmp, ftmp,
     else:
         for i in range(n):
             tdot[i] = 0.0
+    return nfe
+
+
+@nb.njit(inline="always", _nrt=False)
+def _column(m, a, y, f0, p, modes, ref0, scale, region, base_off, lin, ytmp, ftmp, fb):
+    """Column ``a`` of ``jacobian`` (the derivative along state ``order[a]``) by a difference on
+    ``region``'s side; returns the right-hand-side evaluations spent."""
+    jac, order = lin[0], lin[2]
+    n = state_count(m)
+    j = order[a]
+    for i in range(n):
+        ytmp[i] = y[i]
+    dy = math.sqrt(EPS) * max(abs(y[j]), scale[j])
+    ytmp[j] = y[j] + dy
+    if m.region(m.args, ytmp, p, modes, ref0) != region:
+        ytmp[j] = y[j] - dy
+    dy = ytmp[j] - y[j]
+    m.rhs(m.args, ytmp, p, modes, ref0, ftmp)
+    nfe = 1
+    base = f0
+    if base_off:  # y + dy is the base, y + 2 dy the other point
+        for i in range(n):
+            fb[i] = ftmp[i]
+        base = fb
+        ytmp[j] = y[j] + 2.0 * dy
+        m.rhs(m.args, ytmp, p, modes, ref0, ftmp)
+        nfe += 1
+    for i in range(n):
+        jac[a, i] = (ftmp[i] - base[i]) / dy
     return nfe
 
 

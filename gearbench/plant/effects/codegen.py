@@ -137,13 +137,14 @@ def stick_slip(added) -> bool:
     return friction_of(added.effect) is not None and added.values.get("model", "stick_slip") == "stick_slip"
 
 
-def pack_effects(effects, plant, p) -> bool:
+def pack_effects(effects, plant, p) -> tuple[bool, set]:
     """Add each compiled effect of ``effects`` to its block of ``p``; two of a
     kind at one place add their numbers; a stick-slip law's blocks raise its
-    shaft's flag (``layout.P_STICK_M``, ``P_STICK_L``).  Returns whether they
-    all keep the right-hand side piecewise-linear."""
+    shaft's flag (``layout.P_STICK_M``, ``P_STICK_L``).  Returns whether the
+    others all keep the right-hand side piecewise-linear, and the places of the
+    stick-slip laws that do not (their sliding level curves with the speed alone)."""
     table = blocks()
-    linear = True
+    linear, curved = True, set()
     for added in effects:
         e = added.effect
         if term_of(e) is None:
@@ -163,8 +164,12 @@ def pack_effects(effects, plant, p) -> bool:
             raise ValueError(f"effect {e.name!r} gave {len(numbers)} numbers for its {b.size} slots {e.slots}")
         p[b.offset] += 1.0
         p[b.offset + 1:b.offset + 1 + b.size] += numbers
-        linear = linear and e.piecewise_linear(added.values)
-    return linear
+        if not e.piecewise_linear(added.values):
+            if stick:
+                curved.add(place)
+            else:
+                linear = False
+    return linear, curved
 
 
 def state_scales(effects, plant, sc) -> None:
@@ -255,7 +260,8 @@ def feedback_order(p):
 @nb.njit(cache=True)
 def jacobian(t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb):
     """The solver's difference Jacobian of this model (``solver.steppers.jacobian``)."""
-    return _steppers.jacobian(MODEL, t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb)
+    return _steppers.jacobian(MODEL, t, x, f0, p, modes, ref, slope, scale, region, lin, ytmp, ftmp, fb,
+                              np.zeros(1, dtype=np.int64), -1)
 '''
 
 
