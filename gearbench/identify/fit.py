@@ -550,13 +550,8 @@ def fit(replay: Replay, plant: Plant, frees: list[Free], scorer: Scorer | None =
     round took that rung's screen, in one process, from 22 to 164 s).
 
     ``restarts``: after a stop on the step tolerance (``xtol``), also start another round, up to
-    this many, while a round lowers the RSS by more than :data:`RESTART_GAIN` (a fresh trust
-    region after a kink of the replay: an impact, a breakaway).
-    A first round that used up ``max_nfev`` while lowering the RSS by more than that goes on for
-    one more round from its end, with ``max_nfev`` more: with exact replay steps
-    (``rodas4-exp``) the hidden shaft compliance of ``studies.hidden_effects`` went down a long
-    valley, from RSS 551,893 to 63,074 at 19.66 N m/rad for 20, and was dropped there as not
-    converged for another start's 582,423 at 70.6 (the diagnosis then ended "nothing pays").
+    this many, while a round lowers the RSS by more than :data:`RESTART_GAIN` (a fresh trust region
+    after an impact, a breakaway); a first round out of residuals still going down goes on once.
 
     ``sharp``: where estimates trade off, the standard errors are taken again at the end
     (:func:`sharpen`, 2k replays); False leaves them the first estimate's, for the caller to
@@ -595,7 +590,13 @@ def _rounds(trials: _Trials, z0, bounds, central: bool, max_nfev: int, restarts:
     with the Jacobian there for the standard errors.  Why: on practice record p10 (coloured noise)
     the simplification's refit of Coulomb friction from a Stribeck law's sliding level, 0.0299964
     N m, ended 2e-5 of itself away with a reset at a false seam, RSS 622,479 where its start scored
-    589,543, and the BIC kept the Stribeck law."""
+    589,543, and the BIC kept the Stribeck law.
+
+    A first round that used up ``max_nfev`` while lowering the RSS by more than :data:`RESTART_GAIN`
+    goes on for one more round from its end, with ``max_nfev`` more: with exact replay steps
+    (``rodas4-exp``) the hidden shaft compliance of ``studies.hidden_effects`` went down a long
+    valley, from RSS 551,893 to 63,074 at 19.66 N m/rad for 20, and was dropped there as not
+    converged for another start's 582,423 at 70.6 (the diagnosis then ended "nothing pays")."""
     nfev, kept, rounds = 0, None, 0
     seams, start_rss = trials.settle(z0)
     seams = seams if held is None else tuple(held)
