@@ -158,10 +158,10 @@ def _stribeck(one_body: bool):
     if one_body:
         eff = friction("stribeck_friction", location="load", static_torque=3.0, coulomb_torque=2.0,
                        stribeck_speed=0.5)
-        return body(eff, AddedEffect("load_spring", {"stiffness": 50.0, "rest_angle_deg": 0.0})), L.P_CURVED_L
+        return body(eff, AddedEffect("load_spring", {"stiffness": 50.0, "rest_angle_deg": 0.0}))
     eff = friction("stribeck_friction", location="load", static_torque=0.08, coulomb_torque=0.05,
                    stribeck_speed=0.5)
-    return geartrain(eff, AddedEffect("load_spring", {"stiffness": 0.5, "rest_angle_deg": 0.0})), L.P_CURVED_L
+    return geartrain(eff, AddedEffect("load_spring", {"stiffness": 0.5, "rest_angle_deg": 0.0}))
 
 
 @pytest.mark.parametrize("one_body", [False, True], ids=["train", "one body"])
@@ -173,14 +173,14 @@ def test_stribeck_friction_takes_again_only_its_speeds_column(one_body):
     right-hand sides for 93,694, both 1.93e-8 rad from RODAS at 1e-11; measured 2026-12-07; the one
     body reads two states, so it saves less: 16,046 for 16,271).  The input is
     ``test_events_are_located_...``'s sampled voltage (a torque in N m on the body)."""
-    plant, flag = _stribeck(one_body)
+    plant = _stribeck(one_body)
     t = np.arange(1500) * 1e-3
     v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
     slope = np.append(np.diff(v) / 1e-3, 0.0)
     p = pack_plant(plant)
-    assert p[flag] == 1.0 and p[L.P_PWL] == 0.0 and p[L.P_CURVED_M] == 0.0
+    assert p[L.P_CURVED_L] == 1.0 and p[L.P_PWL] == 0.0 and p[L.P_CURVED_M] == 0.0
     whole = pack_plant(plant)
-    whole[flag] = 0.0
+    whole[L.P_CURVED_L] = 0.0
     runs = {}
     for name, packed in (("columns", p), ("whole", whole)):
         packed[L.P_CTRL] = L.CTRL_OPEN
