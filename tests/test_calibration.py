@@ -155,8 +155,9 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
     or does not converge, is dropped and the one it started from kept (scipy's least squares
     replaced by a script of its ends; the RSS is the replay's, of a 0.5 s record of the true plant:
     the further from 1.0, the larger; the record is one window, so its resets never change).  The
-    fit starts at 1.5, worse than every end (a first round that ends worse than its start is
-    dropped too: ``tests/test_secant.py``)."""
+    fit starts at 1.5, worse than every end but 1.6 (a first round that ends worse than its start is
+    dropped too: ``tests/test_secant.py``).  A first round that ran out of residuals while still
+    going down goes on once more (the hidden shaft compliance of ``studies.hidden_effects``)."""
     from types import SimpleNamespace
 
     import numpy as np
@@ -204,6 +205,13 @@ def test_a_fit_goes_round_again_after_a_stall_and_keeps_its_best_converged_end(m
     assert len(calls) == 1 and value(r) == pytest.approx(1.3)
     r, calls = run([(xtol, 1.2), (gtol, 1.1)], restarts=3, below=without.rss)
     assert len(calls) == 2 and value(r) == pytest.approx(1.1)
+    # a first round out of residuals while still going down goes on once, even without restarts
+    r, calls = run([(budget, 1.2), (gtol, 1.1)], restarts=0)
+    assert calls == pytest.approx([1.5, 1.2]) and r.converged and value(r) == pytest.approx(1.1)
+    r, calls = run([(budget, 1.2), (budget, 1.1)], restarts=0)  # out again: not converged
+    assert len(calls) == 2 and not r.converged
+    r, calls = run([(budget, 1.6)], restarts=3)  # out of residuals and worse than its start: no more
+    assert len(calls) == 1 and not r.converged
 
 
 def test_a_fit_holds_the_replays_resets_while_it_moves():
