@@ -398,36 +398,6 @@ def test_window_resets_keep_the_true_plant_at_its_noise(case):
     assert all(r < 1.05 for r in ratios.values()), ratios
 
 
-def test_a_seams_straight_line_is_numpys_least_squares_line():
-    """The reset's straight line through the last samples of a window (``Replay._line_end``, its
-    times read once per seam) is numpy's: at every seam of p10 (its seams at the slowest samples,
-    not a regular grid), a difference that drifts and is noisy gives ``np.polyfit``'s value at the
-    seam and its standard error (``cov="unscaled"`` times the residuals' variance) to 1e-10 of
-    them, the second time too; a pickled replay leaves what it made behind, and makes the same
-    again."""
-    import pickle
-    from gearbench.identify.replay import RESET_SAMPLES
-
-    replay = Replay(read_measurement(DATA / "cases" / "p10" / "data.csv"))
-    plant = true_plant(yaml.safe_load((DATA / "cases" / "p10" / "truth.yaml").read_text()), "p10")
-    rng = np.random.default_rng(3)
-    m = RESET_SAMPLES
-    seams = [a for a, _ in replay.windows(plant)[1:]]
-    assert len(seams) >= 10
-    for a in seams:
-        tt = replay.t[a - m:a] - replay.t[a]
-        for _ in range(2):
-            d = 1e-3 + 0.02 * tt + 1e-4 * rng.standard_normal(m)
-            coef, cov = np.polyfit(tt, d, 1, cov="unscaled")
-            r = d - np.polyval(coef, tt)
-            value, se = replay._line_end(a, d)
-            assert value == pytest.approx(coef[-1], rel=1e-10)
-            assert se == pytest.approx(math.sqrt(cov[-1, -1] * (r @ r) / (m - 2)), rel=1e-10)
-    again = pickle.loads(pickle.dumps(replay))
-    assert replay._made and not again._made
-    assert np.array_equal(again.run(plant)["motor_angle_deg"], replay.run(plant)["motor_angle_deg"])
-
-
 def test_a_record_without_its_opening_rest_needs_the_noise_stated():
     """p10 cut where its input first leaves zero: no opening rest to read the noise's colour from,
     so the reset test has the 21 samples' scatter alone and the noise moves the true plant (6

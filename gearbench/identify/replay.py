@@ -220,9 +220,6 @@ class Replay:
     t: np.ndarray = field(init=False, repr=False)
     # read off the record once: "found" (windows()), ("rest line", column, m) (_line_noise_at_rest)
     _read: dict = field(init=False, repr=False, default_factory=dict)
-    # made again in each process, not pickled with the replay: ("segments", a, b) (_segments, open
-    # loop), ("line", a, m) (_line_end): made per run, they were most of a replay's Python work (docs/speed.md)
-    _made: dict = field(init=False, repr=False, default_factory=dict)
     meter: object | None = field(init=False, repr=False, default=None)
 
     def metered(self, meter) -> "Replay":
@@ -234,7 +231,7 @@ class Replay:
         return out
 
     def __getstate__(self) -> dict:
-        return {**self.__dict__, "meter": None, "_made": {}}  # a meter counts in its own process only
+        return {**self.__dict__, "meter": None}  # a meter counts in its own process only
 
     def __post_init__(self):
         t = self.data.time_s
@@ -381,34 +378,17 @@ class Replay:
         sim = S.to_output_rad(name, y, plant)
         d = th[a - m:a] - sim
         # the difference grows while the model drifts: its straight line, evaluated at sample a
-        drift, se = self._line_end(a, d)
+        tt = self.t[a - m:a] - self.t[a]
+        coef, cov = np.polyfit(tt, d, 1, cov="unscaled")
+        r = d - np.polyval(coef, tt)
+        drift = float(coef[-1])
+        se = float(np.sqrt(cov[-1, -1] * (r @ r) / (m - 2)))
         floor = max(self._line_noise_at_rest(name, m), self.noise_std.get(name, 0.0))  # the column's unit
         se = max(se, float(abs(S.to_output_rad(name, floor, plant))))
         move = abs(drift) > 5.0 * se if seams is None else a in seams
         if move:
             x[L.X_THM] += plant.gear.ratio * drift
         return move
-
-    def _line_end(self, a: int, y: np.ndarray) -> tuple[float, float]:
-        """The least-squares straight line through ``y``, the values at the ``len(y)`` samples
-        before sample ``a``, evaluated at ``t[a]``, and that value's standard error:
-
-            y(t[a]) = mean(y) - slope tm,  slope = sum(tc y) / stt,  se^2 = (1/m + tm^2/stt) s^2,
-
-        with ``tc`` the times about their mean ``tm`` (from ``t[a]``), ``stt = sum(tc^2)`` and
-        ``s^2`` the residuals' sum of squares over ``m - 2`` (``np.polyfit(..., 1, cov="unscaled")``'s
-        figures; the times' part is made once per seam)."""
-        m = len(y)
-        key = ("line", a, m)
-        if key not in self._made:
-            tt = self.t[a - m:a] - self.t[a]
-            tm = float(np.mean(tt))
-            self._made[key] = (tt, tt - tm, tm, float((tt - tm) @ (tt - tm)))
-        tt, tc, tm, stt = self._made[key]
-        slope = float(tc @ y) / stt
-        value = float(np.mean(y)) - slope * tm
-        r = y - value - slope * tt
-        return value, math.sqrt((1.0 / m + tm * tm / stt) * float(r @ r) / (m - 2))
 
     def opening_rest(self) -> int:
         """The samples of an open-loop record before its input first leaves zero (0 where it starts
@@ -479,9 +459,6 @@ class Replay:
         return p
 
     def _segments(self, plant: Plant, a: int, b: int) -> Segments:
-        key = ("segments", a, b)
-        if key in self._made:
-            return self._made[key]
         t = self.t[a:b] - self.t[a]
         z = np.zeros(b - a)
         if self.closed_loop:
@@ -493,8 +470,7 @@ class Replay:
         u = np.asarray(self.data.input[a:b], dtype=float)
         # a held input that does not change needs no restart of the integrator
         keep = np.r_[True, u[1:] != u[:-1]]
-        self._made[key] = Segments(t[keep], u[keep], z[keep])  # the record's input alone: any plant's
-        return self._made[key]
+        return Segments(t[keep], u[keep], z[keep])
 
     def windows(self, plant: Plant) -> list[tuple[int, int]]:
         """Sample ranges [a, b) of the windows (b of one is a of the next).
