@@ -105,6 +105,14 @@ def test_nothing_dissipates_and_no_energy_is_lost():
     assert drift["rodas4"] > 10 * drift["rodas4-exp"], drift
 
 
+def _sampled_voltage():
+    """``test_stick_slip``'s sampled, sloped voltage (V; N m on a torque-driven body): 1,500 samples
+    of 1 ms, each with its slope to the next (V/s)."""
+    t = np.arange(1500) * 1e-3
+    v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
+    return t, v, np.append(np.diff(v) / 1e-3, 0.0)
+
+
 def _against_rodas(plant, t, v, slope, share: float) -> np.ndarray:
     """1.5 s of ``plant`` under the sampled input ``v`` (``slope`` per s on each sample) by
     ``rodas4-exp`` and ``rodas4`` at rtol 1e-6 and by ``rodas4`` at 1e-11: the exact steps' angles are
@@ -131,9 +139,7 @@ def test_events_are_located_as_the_rosenbrock_steps_locate_them():
     rad then; 4.61e-6 with exact steps), with as many events (52), in under half the right-hand sides
     (8,230 for 27,717; measured 2026-12-07)."""
     plant = geartrain(friction("coulomb_friction", location="load", torque=0.05))
-    t = np.arange(1500) * 1e-3
-    v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
-    slope = np.append(np.diff(v) / 1e-3, 0.0)
+    t, v, slope = _sampled_voltage()
     _against_rodas(plant, t, v, slope, 0.5)
 
 
@@ -174,9 +180,7 @@ def test_stribeck_friction_takes_again_only_its_speeds_column(one_body):
     body reads two states, so it saves less: 16,046 for 16,271).  The input is
     ``test_events_are_located_...``'s sampled voltage (a torque in N m on the body)."""
     plant = _stribeck(one_body)
-    t = np.arange(1500) * 1e-3
-    v = 4.0 * np.sin(2 * np.pi * 1.3 * t) + 2.0 * np.sin(2 * np.pi * 4.1 * t + 1.0)
-    slope = np.append(np.diff(v) / 1e-3, 0.0)
+    t, v, slope = _sampled_voltage()
     p = pack_plant(plant)
     assert p[L.P_CURVED_L] == 1.0 and p[L.P_PWL] == 0.0 and p[L.P_CURVED_M] == 0.0
     whole = pack_plant(plant)

@@ -35,12 +35,19 @@ from ..layout import (M_STICK_M, P_CURVED_L, P_CURVED_M, P_HAS_SHAFT, P_N, P_RIG
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
-def present(p, b):
-    """Whether stick-slip friction acts on body ``b`` (0 the rotor's, 1 the load's)."""
+def _on_body(p, b, at_motor, at_load):
+    """Whether a law at the motor (``at_motor``) or at the load (``at_load``) acts on body ``b``
+    (0 the rotor's, 1 the load's): on one rigid body without a shaft both act on the rotor's."""
     one_body = p[P_RIGID] > 0.0 and p[P_HAS_SHAFT] == 0.0
     if b == 0:
-        return p[P_STICK_M] > 0.0 or (one_body and p[P_STICK_L] > 0.0)
-    return p[P_STICK_L] > 0.0 and not one_body
+        return at_motor or (one_body and at_load)
+    return at_load and not one_body
+
+
+@nb.njit(cache=True, inline="always", _nrt=False)
+def present(p, b):
+    """Whether stick-slip friction acts on body ``b`` (0 the rotor's, 1 the load's)."""
+    return _on_body(p, b, p[P_STICK_M] > 0.0, p[P_STICK_L] > 0.0)
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
@@ -48,12 +55,7 @@ def curves(p, modes, b):
     """Whether body ``b`` slips under a sliding level that curves with its speed (Stribeck's,
     ``layout.P_CURVED_M``/``P_CURVED_L``): the right-hand side is then not affine in that speed
     (and in no other state: the level depends on the speed alone).  Stuck, it holds whatever the law."""
-    if modes[M_STICK_M + b] == 0:
-        return False
-    one_body = p[P_RIGID] > 0.0 and p[P_HAS_SHAFT] == 0.0
-    if b == 0:
-        return p[P_CURVED_M] > 0.0 or (one_body and p[P_CURVED_L] > 0.0)
-    return p[P_CURVED_L] > 0.0 and not one_body
+    return modes[M_STICK_M + b] != 0 and _on_body(p, b, p[P_CURVED_M] > 0.0, p[P_CURVED_L] > 0.0)
 
 
 @nb.njit(cache=True, inline="always", _nrt=False)
